@@ -1,0 +1,103 @@
+"""The one table of the bus: key → message type, and how each key is published.
+
+The recorder, the fuzz tests and the docs all read `TOPICS`. A key expression is
+``<prefix>/<suffix>``; the default prefix carries the schema version (`handover/v1`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal
+
+from bus_schema import messages as m
+
+SCHEMA_VERSION = 1
+DEFAULT_PREFIX = f"handover/v{SCHEMA_VERSION}"
+ALIVE_SUFFIX = "alive"
+
+#: ``safety`` keys are published with congestion control BLOCK and a high priority;
+#: ``state`` keys may be dropped under congestion.
+Delivery = Literal["safety", "state"]
+
+
+@dataclass(frozen=True)
+class Topic:
+    """One key of the bus.
+
+    Attributes:
+        suffix: key below the prefix, e.g. ``robot/joint_state``.
+        type: the msgspec Struct carried on this key (exactly one).
+        delivery: ``safety`` (BLOCK, high priority) or ``state`` (may drop).
+        nominal_rate_hz: expected publication rate (0: on events only), for freshness checks
+            and docs.
+        publisher: the service that publishes it.
+        description: one line for the docs.
+    """
+
+    suffix: str
+    type: type[m.Message]
+    delivery: Delivery
+    nominal_rate_hz: float
+    publisher: str
+    description: str
+
+    def key(self, prefix: str = DEFAULT_PREFIX) -> str:
+        """Full key expression under `prefix`."""
+        return f"{prefix}/{self.suffix}"
+
+
+_T = Topic
+JOINT_STATE = _T("robot/joint_state", m.JointState, "state", 100, "bridge", "measured arm joints")
+JOINT_COMMAND = _T("robot/joint_command", m.JointCommand, "safety", 100, "motion", "arm joint targets")
+WRIST_WRENCH = _T("sensors/wrist_wrench", m.WristWrench, "state", 100, "bridge", "wrist F/T, gripper frame")
+OBJECT_MOTION = _T("sensors/object_motion", m.ObjectMotion, "state", 100, "bridge", "optical slip sensor")
+SKELETON = _T("perception/skeleton", m.Skeleton, "state", 30, "bridge", "15-joint skeleton")
+DEPTH = _T("perception/depth", m.DepthImage, "state", 30, "bridge", "depth image")
+HUMAN = _T("perception/human", m.HumanState, "state", 30, "tracker", "corrected receiver state")
+OBJECT = _T("perception/object", m.ObjectEstimate, "state", 30, "tracker", "object on the table")
+TRANSFER = _T("planner/transfer", m.TransferTarget, "state", 0, "planner", "DJT transfer point")
+MOTION_GOAL = _T("motion/goal", m.MotionGoal, "safety", 0, "supervisor", "motion goals")
+MOTION_STATUS = _T("motion/status", m.MotionStatus, "state", 50, "motion", "motion progress")
+MOTION_STOP = _T("motion/stop", m.MotionStop, "safety", 0, "supervisor", "release/protective stop")
+GRIPPER_COMMAND = _T("gripper/command", m.GripperCommand, "safety", 100, "gripper", "grip force command")
+GRIPPER_STATE = _T("gripper/state", m.GripperState, "state", 100, "gripper", "gripper mode and force")
+GRIPPER_RELEASE = _T("gripper/release", m.ReleaseEvent, "safety", 0, "gripper", "release event")
+SUPERVISOR_STATE = _T("supervisor/state", m.SupervisorState, "state", 10, "supervisor", "handover phase")
+SIM_TRUTH = _T("sim/truth", m.SimTruth, "state", 100, "bridge", "simulator ground truth")
+del _T
+
+TOPICS: tuple[Topic, ...] = (
+    JOINT_STATE,
+    JOINT_COMMAND,
+    WRIST_WRENCH,
+    OBJECT_MOTION,
+    SKELETON,
+    DEPTH,
+    HUMAN,
+    OBJECT,
+    TRANSFER,
+    MOTION_GOAL,
+    MOTION_STATUS,
+    MOTION_STOP,
+    GRIPPER_COMMAND,
+    GRIPPER_STATE,
+    GRIPPER_RELEASE,
+    SUPERVISOR_STATE,
+    SIM_TRUTH,
+)
+TOPICS_BY_SUFFIX: dict[str, Topic] = {t.suffix: t for t in TOPICS}
+assert len(TOPICS_BY_SUFFIX) == len(TOPICS), "duplicate key in TOPICS"
+assert len({t.type for t in TOPICS}) == len(TOPICS), "one key, one type: a type is reused"
+
+
+def alive_key(service: str, prefix: str = DEFAULT_PREFIX) -> str:
+    """Liveliness token key of `service`."""
+    return f"{prefix}/{ALIVE_SUFFIX}/{service}"
+
+
+def topic_for_key(key: str, prefix: str = DEFAULT_PREFIX) -> Topic | None:
+    """The topic whose full key is `key` under `prefix`, or None."""
+    head = prefix + "/"
+    if not key.startswith(head):
+        return None
+    return TOPICS_BY_SUFFIX.get(key[len(head) :])
