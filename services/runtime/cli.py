@@ -1,0 +1,83 @@
+"""Shared command-line plumbing: common flags, logging, one-line errors, exit codes.
+
+Exit codes: 0 success (including Ctrl-C), 1 the service failed while running, 2 bad input
+(arguments, profile, config) — always with a one-line reason on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Callable
+
+from services.runtime.errors import ServiceError
+from services.runtime.logs import setup_logging
+from services.runtime.profile import DEFAULT_PROFILE, Profile, load_profile_file
+
+EXIT_OK = 0
+EXIT_FAILURE = 1
+EXIT_BAD_INPUT = 2
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports errors as one line and exit code 2."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        sys.stderr.write(f"{self.prog}: error: {message} (see --help)\n")
+        raise SystemExit(EXIT_BAD_INPUT)
+
+
+def base_parser(prog: str, description: str) -> argparse.ArgumentParser:
+    """An argument parser with the flags every service shares.
+
+    Flags: ``--profile`` (name under deploy/ or a TOML path, default ``sim``), ``--endpoint``
+    (override the bus endpoint), ``--prefix`` (override the key prefix), ``--log-level``,
+    ``--log-json``.
+    """
+    parser = _Parser(prog=prog, description=description,
+                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    group = parser.add_argument_group("bus and logging")
+    group.add_argument("--profile", "--config", dest="profile", default=DEFAULT_PROFILE,
+                       help="deploy profile: a name under deploy/ (sim, baxter, …) or a path to a TOML file")
+    group.add_argument("--endpoint", default=None,
+                       help="Zenoh router endpoint to connect to, e.g. tcp/127.0.0.1:7447 (overrides the profile)")
+    group.add_argument("--prefix", default=None,
+                       help="key prefix on the bus, e.g. handover/v1 (overrides the profile)")
+    group.add_argument("--log-level", default="info", choices=["debug", "info", "warning", "error"],
+                       help="log verbosity")
+    group.add_argument("--log-json", action="store_true", help="log JSON lines instead of text")
+    parser.set_defaults(service_name=prog.removeprefix("handover-"))
+    return parser
+
+
+def load_profile(args: argparse.Namespace) -> Profile:
+    """The profile named by ``--profile`` with ``--endpoint``/``--prefix`` applied."""
+    profile = load_profile_file(args.profile)
+    return profile.with_bus(getattr(args, "endpoint", None), getattr(args, "prefix", None))
+
+
+def run_main(run: Callable[[argparse.Namespace], int], args: argparse.Namespace,
+             service: str | None = None) -> int:
+    """Run a service's `run(args)` with logging set up and errors turned into exit codes."""
+    name = service or getattr(args, "service_name", None) or "handover"
+    setup_logging(name, getattr(args, "log_level", "info"), getattr(args, "log_json", False))
+    log = logging.getLogger(name)
+    try:
+        return int(run(args) or 0)
+    except KeyboardInterrupt:
+        return EXIT_OK
+    except ServiceError as exc:
+        sys.stderr.write(f"{name}: error: {exc}\n")
+        return EXIT_BAD_INPUT if _is_input_error(exc) else EXIT_FAILURE
+    except Exception as exc:  # a bug: say so in one line, details in the debug log
+        log.debug("unhandled exception", exc_info=True)
+        sys.stderr.write(f"{name}: internal error: {type(exc).__name__}: {exc}\n")
+        return EXIT_FAILURE
+
+
+def _is_input_error(exc: ServiceError) -> bool:
+    from services.runtime.errors import ProfileError
+
+    return isinstance(exc, ProfileError) or getattr(exc, "bad_input", False)
+

@@ -1,0 +1,102 @@
+"""Structured logging for services: one line per record, key=value fields, optional JSON.
+
+Use `logging.getLogger(__name__).info("msg", extra={"fields": {"key": value}})` or the
+`kv()` helper; `RateLimitedLog` keeps a noisy condition (bad payloads, overruns) to at most
+one line per period per key while counting every occurrence.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import sys
+import threading
+import time
+from typing import Any
+
+_SERVICE_NAME = "handover"
+
+
+class _Formatter(logging.Formatter):
+    def __init__(self, json_lines: bool) -> None:
+        super().__init__()
+        self.json_lines = json_lines
+
+    def format(self, record: logging.LogRecord) -> str:
+        fields: dict[str, Any] = getattr(record, "fields", None) or {}
+        stamp = time.strftime("%H:%M:%S", time.localtime(record.created))
+        stamp += f".{int(record.msecs):03d}"
+        if self.json_lines:
+            doc = {
+                "t": record.created,
+                "level": record.levelname.lower(),
+                "service": _SERVICE_NAME,
+                "logger": record.name,
+                "msg": record.getMessage(),
+                **fields,
+            }
+            if record.exc_info:
+                doc["exc"] = self.formatException(record.exc_info)
+            return json.dumps(doc, default=str)
+        text = f"{stamp} {record.levelname:<7} {record.getMessage()}"
+        if fields:
+            text += " " + " ".join(f"{k}={_fmt(v)}" for k, v in fields.items())
+        if record.exc_info:
+            text += "\n" + self.formatException(record.exc_info)
+        return text
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    text = str(value)
+    return f'"{text}"' if (" " in text or not text) else text
+
+
+def setup_logging(service: str, level: str = "info", json_lines: bool = False) -> None:
+    """Configure the root logger for a service process (stderr, one line per record)."""
+    global _SERVICE_NAME
+    _SERVICE_NAME = service
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_Formatter(json_lines))
+    root = logging.getLogger()
+    root.handlers[:] = [handler]
+    try:
+        root.setLevel(level.upper())
+    except ValueError:
+        root.setLevel(logging.INFO)
+        root.warning("unknown log level %r, using info", level)
+
+
+def kv(**fields: Any) -> dict[str, Any]:
+    """`extra=` argument carrying structured fields: ``log.info("x", extra=kv(a=1))``."""
+    return {"fields": fields}
+
+
+class RateLimitedLog:
+    """Logs a condition at most once per `period_s` per key, counting every occurrence.
+
+    Thread-safe; cheap enough to call from a Zenoh callback (no I/O unless it logs).
+    """
+
+    def __init__(self, logger: logging.Logger, period_s: float = 1.0) -> None:
+        self._logger = logger
+        self._period_s = period_s
+        self._lock = threading.Lock()
+        self._last_logged: dict[str, float] = {}
+        self._suppressed: dict[str, int] = {}
+        self.counts: dict[str, int] = {}
+
+    def warning(self, key: str, message: str, **fields: Any) -> None:
+        now = time.monotonic()
+        with self._lock:
+            self.counts[key] = self.counts.get(key, 0) + 1
+            last = self._last_logged.get(key)
+            if last is not None and now - last < self._period_s:
+                self._suppressed[key] = self._suppressed.get(key, 0) + 1
+                return
+            suppressed = self._suppressed.pop(key, 0)
+            self._last_logged[key] = now
+        if suppressed:
+            fields["suppressed"] = suppressed
+        self._logger.warning(message, extra=kv(**fields))

@@ -1,0 +1,362 @@
+"""ServiceNode: one Zenoh session per service, typed publish/subscribe, liveliness, shutdown.
+
+Rules this module enforces (NOTES.md, Zenoh):
+- every session uses the profile's loopback-only config (multicast and gossip off);
+- callbacks only decode and enqueue: no blocking work and no Zenoh calls inside them;
+- the session is closed from the main thread, never from a callback, and no lock a callback
+  needs is held while closing;
+- safety keys publish with congestion control BLOCK and priority REAL_TIME, state keys with
+  DROP and DATA.
+
+Freshness is judged by local receive time (`time.monotonic()`), never by the sender's stamp.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+import threading
+import time
+from collections import deque
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any, Generic, TypeVar
+
+import zenoh
+
+from bus_schema import Topic, alive_key, decode, encode_for
+from bus_schema.codec import DecodeError
+from bus_schema.messages import Message
+from services.runtime.errors import BusError
+from services.runtime.logs import RateLimitedLog, kv
+from services.runtime.loop import RateLoop
+from services.runtime.profile import Profile, zenoh_config
+
+log = logging.getLogger(__name__)
+
+M = TypeVar("M", bound=Message)
+
+
+@dataclass(frozen=True)
+class Received(Generic[M]):
+    """A decoded message and its local receive time (`time.monotonic()`, s)."""
+
+    msg: M
+    rx_monotonic: float
+
+
+@dataclass
+class SubscriptionStats:
+    """Counters of one subscription.
+
+    Attributes:
+        received: payloads that arrived.
+        accepted: payloads that decoded.
+        rejected: payloads dropped because they did not decode.
+        seq_gaps: messages missed according to the publishers' sequence numbers.
+        overflowed: accepted messages dropped because the queue was full.
+    """
+
+    received: int = 0
+    accepted: int = 0
+    rejected: int = 0
+    seq_gaps: int = 0
+    overflowed: int = 0
+
+
+class TypedSubscription(Generic[M]):
+    """Decode-at-the-edge subscription to one topic.
+
+    The Zenoh callback decodes the payload with the topic's typed decoder; a payload that
+    does not decode is counted, logged (rate-limited) and dropped. Decoded messages go to a
+    bounded queue read by the service thread with `latest()` or `drain()`.
+    """
+
+    def __init__(self, node: ServiceNode, topic: Topic, queue_size: int) -> None:
+        self.topic = topic
+        self.key = topic.key(node.profile.prefix)
+        self.stats = SubscriptionStats()
+        self._node = node
+        self._queue: deque[Received[M]] = deque(maxlen=queue_size)
+        self._latest: Received[M] | None = None
+        self._last_seq: dict[str, int] = {}
+        self._bad_log = RateLimitedLog(log, 1.0)
+        self._subscriber = node.session.declare_subscriber(self.key, self._on_sample)
+
+    # Runs on a Zenoh thread: decode, count, enqueue, notify. Nothing else.
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        rx = time.monotonic()
+        self.stats.received += 1
+        try:
+            payload = sample.payload.to_bytes()
+            msg = decode(self.topic, payload)
+        except DecodeError as exc:
+            self.stats.rejected += 1
+            self._bad_log.warning(
+                self.key,
+                f"dropped undecodable payload on {self.key}: {exc}",
+                rejected=self.stats.rejected,
+            )
+            return
+        except Exception as exc:  # never let anything escape into Zenoh's thread
+            self.stats.rejected += 1
+            self._bad_log.warning(self.key, f"dropped payload on {self.key}: {exc!r}")
+            return
+        last = self._last_seq.get(msg.source)
+        if last is not None and msg.seq > last + 1:
+            self.stats.seq_gaps += msg.seq - last - 1
+        self._last_seq[msg.source] = msg.seq
+        self.stats.accepted += 1
+        item = Received(msg, rx)
+        if len(self._queue) == self._queue.maxlen:
+            self.stats.overflowed += 1
+        self._queue.append(item)
+        self._latest = item
+        self._node._notify()
+
+    def latest(self) -> Received[M] | None:
+        """The most recent message received so far (None before the first)."""
+        return self._latest
+
+    def drain(self) -> list[Received[M]]:
+        """All messages received since the last drain, oldest first."""
+        out = []
+        queue = self._queue
+        while queue:
+            try:
+                out.append(queue.popleft())
+            except IndexError:
+                break
+        return out
+
+    def age_s(self, now_monotonic: float | None = None) -> float:
+        """Seconds since the last accepted message (inf before the first)."""
+        if self._latest is None:
+            return float("inf")
+        now = time.monotonic() if now_monotonic is None else now_monotonic
+        return now - self._latest.rx_monotonic
+
+    def undeclare(self) -> None:
+        try:
+            self._subscriber.undeclare()
+        except Exception:  # already closed with the session
+            pass
+
+
+class TypedPublisher(Generic[M]):
+    """Publisher of one topic; fills the header (per-publisher `seq`, `stamp_ns`, `source`)."""
+
+    def __init__(self, node: ServiceNode, topic: Topic) -> None:
+        self.topic = topic
+        self.key = topic.key(node.profile.prefix)
+        self._source = node.name
+        self._seq = 0
+        self._lock = threading.Lock()
+        if topic.delivery == "safety":
+            cc, prio = zenoh.CongestionControl.BLOCK, zenoh.Priority.REAL_TIME
+        else:
+            cc, prio = zenoh.CongestionControl.DROP, zenoh.Priority.DATA
+        self._publisher = node.session.declare_publisher(
+            self.key, congestion_control=cc, priority=prio
+        )
+
+    def next_header(self) -> dict[str, Any]:
+        """Header fields for the next message (advances `seq`)."""
+        with self._lock:
+            seq = self._seq
+            self._seq += 1
+        return {"seq": seq, "stamp_ns": time.time_ns(), "source": self._source}
+
+    def put(self, **fields: Any) -> M:
+        """Build a message of the topic's type from `fields` plus a fresh header; publish it.
+
+        Returns:
+            The message that was published.
+        """
+        msg = self.topic.type(**self.next_header(), **fields)
+        self._publisher.put(encode_for(self.topic, msg))
+        return msg  # type: ignore[return-value]
+
+    def put_message(self, msg: M) -> None:
+        """Publish a message built elsewhere (its header is sent as is)."""
+        self._publisher.put(encode_for(self.topic, msg))
+
+    def put_raw(self, payload: bytes) -> None:
+        """Publish raw bytes on this key (fault injection and fuzzing only)."""
+        self._publisher.put(payload)
+
+    def undeclare(self) -> None:
+        try:
+            self._publisher.undeclare()
+        except Exception:
+            pass
+
+
+def open_session(profile: Profile, mode: str = "client", timeout_s: float = 10.0) -> zenoh.Session:
+    """Open a Zenoh session with the profile's loopback-only config, retrying until the
+    router answers or `timeout_s` passes.
+
+    Raises:
+        BusError: the router at the profile's endpoint did not answer in time.
+    """
+    deadline = time.monotonic() + timeout_s
+    last_error: Exception | None = None
+    while True:
+        try:
+            return zenoh.open(zenoh_config(profile, mode))  # type: ignore[arg-type]
+        except zenoh.ZError as exc:
+            last_error = exc
+        if time.monotonic() >= deadline:
+            raise BusError(
+                f"could not reach the Zenoh router at {profile.endpoint} within {timeout_s:.1f} s "
+                f"(is handover-up or a router running there?): {last_error}"
+            )
+        time.sleep(0.05)
+
+
+class ServiceNode:
+    """A service's presence on the bus.
+
+    Use as a context manager in the service's main thread::
+
+        with ServiceNode("bridge", profile) as node:
+            pub = node.publisher(topics.JOINT_STATE)
+            sub = node.subscribe(topics.JOINT_COMMAND)
+            for tick in node.loop(100.0):
+                ...
+
+    Entering opens the session (client mode, connecting to the profile's router), declares
+    the liveliness token ``<prefix>/alive/<name>`` and installs SIGINT/SIGTERM handlers that
+    request shutdown. Leaving undeclares everything and closes the session, from this thread.
+    """
+
+    def __init__(
+        self,
+        name: str,
+        profile: Profile,
+        *,
+        mode: str = "client",
+        connect_timeout_s: float = 10.0,
+        install_signal_handlers: bool = True,
+    ) -> None:
+        self.name = name
+        self.profile = profile
+        self.mode = mode
+        self.connect_timeout_s = connect_timeout_s
+        self.stop_event = threading.Event()
+        self._install_signal_handlers = install_signal_handlers
+        self._wake = threading.Condition()
+        self._new_data = False
+        self._subscriptions: list[TypedSubscription[Any]] = []
+        self._publishers: list[TypedPublisher[Any]] = []
+        self._session: zenoh.Session | None = None
+        self._token: Any = None
+        self._previous_handlers: dict[int, Any] = {}
+        self.loops: list[RateLoop] = []
+
+    # ------------------------------------------------------------------ lifecycle
+    def __enter__(self) -> ServiceNode:
+        self.open()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def open(self) -> None:
+        if self._install_signal_handlers and threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._previous_handlers[sig] = signal.signal(sig, self._on_signal)
+        self._session = open_session(self.profile, self.mode, self.connect_timeout_s)
+        self._token = self._session.liveliness().declare_token(
+            alive_key(self.name, self.profile.prefix)
+        )
+        log.info(
+            "%s connected to the bus",
+            self.name,
+            extra=kv(endpoint=self.profile.endpoint, prefix=self.profile.prefix),
+        )
+
+    def close(self) -> None:
+        """Undeclare subscriptions, publishers and the token, then close the session."""
+        self.stop_event.set()
+        for sub in self._subscriptions:
+            sub.undeclare()
+        for pub in self._publishers:
+            pub.undeclare()
+        if self._token is not None:
+            try:
+                self._token.undeclare()
+            except Exception:
+                pass
+            self._token = None
+        if self._session is not None:
+            try:
+                self._session.close()
+            except Exception as exc:
+                log.warning("closing the Zenoh session failed: %s", exc)
+            self._session = None
+        for sig, handler in self._previous_handlers.items():
+            signal.signal(sig, handler)
+        self._previous_handlers.clear()
+
+    def _on_signal(self, signum: int, _frame: object) -> None:
+        log.info("%s received %s, shutting down", self.name, signal.Signals(signum).name)
+        self.request_stop()
+
+    def request_stop(self) -> None:
+        """Ask the service's loops to end (thread-safe, signal-safe)."""
+        self.stop_event.set()
+        self._notify()
+
+    @property
+    def should_stop(self) -> bool:
+        return self.stop_event.is_set()
+
+    @property
+    def session(self) -> zenoh.Session:
+        if self._session is None:
+            raise BusError(f"{self.name}: the bus session is not open")
+        return self._session
+
+    # ------------------------------------------------------------------ pub/sub
+    def publisher(self, topic: Topic) -> TypedPublisher[Any]:
+        pub: TypedPublisher[Any] = TypedPublisher(self, topic)
+        self._publishers.append(pub)
+        return pub
+
+    def subscribe(self, topic: Topic, queue_size: int = 256) -> TypedSubscription[Any]:
+        sub: TypedSubscription[Any] = TypedSubscription(self, topic, queue_size)
+        self._subscriptions.append(sub)
+        return sub
+
+    def _notify(self) -> None:
+        with self._wake:
+            self._new_data = True
+            self._wake.notify_all()
+
+    def wait(self, timeout_s: float) -> bool:
+        """Block until any subscription has new data, shutdown, or `timeout_s` passes.
+
+        Returns:
+            True when new data arrived since the last call.
+        """
+        with self._wake:
+            if not self._new_data and not self.stop_event.is_set():
+                self._wake.wait(timeout_s)
+            got = self._new_data
+            self._new_data = False
+        return got
+
+    def loop(self, rate_hz: float) -> Iterator[int]:
+        """A fixed-rate loop (see `RateLoop`) that ends on shutdown."""
+        loop = RateLoop(rate_hz, self.stop_event, name=f"{self.name} {rate_hz:g} Hz loop")
+        self.loops.append(loop)
+        return iter(loop)
+
+    def stats(self) -> dict[str, Any]:
+        """Counters of every subscription and loop, for logs and tests."""
+        return {
+            "subscriptions": {s.key: vars(s.stats).copy() for s in self._subscriptions},
+            "loops": [vars(lp.stats).copy() for lp in self.loops],
+        }
+

@@ -1,0 +1,155 @@
+"""Helpers for tests and benchmarks that run services as real processes on a loopback bus.
+
+Everything here stops only what it started, by PID, even when the test fails.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import zenoh
+
+from services.runtime.liveliness import alive_services
+from services.runtime.node import open_session
+from services.runtime.profile import Profile, load_profile_file
+
+
+def free_tcp_port() -> int:
+    """A TCP port on 127.0.0.1 that was free a moment ago."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+def loopback_profile(port: int | None = None, profile: str = "sim") -> Profile:
+    """The named profile moved to `tcp/127.0.0.1:<port>` (a free port when None)."""
+    port = port or free_tcp_port()
+    return load_profile_file(profile).with_bus(endpoint=f"tcp/127.0.0.1:{port}")
+
+
+class BusRouter:
+    """An in-process Zenoh router on the profile's loopback endpoint (context manager)."""
+
+    def __init__(self, profile: Profile) -> None:
+        self.profile = profile
+        self.session: zenoh.Session | None = None
+
+    def __enter__(self) -> zenoh.Session:
+        self.session = open_session(self.profile, "router", timeout_s=5.0)
+        return self.session
+
+    def __exit__(self, *exc: object) -> None:
+        if self.session is not None:
+            self.session.close()
+            self.session = None
+
+
+def wait_until(predicate: Callable[[], bool], timeout_s: float, interval_s: float = 0.01) -> bool:
+    """Poll `predicate` until it is true or `timeout_s` passes; return its last value."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        if predicate():
+            return True
+        if time.monotonic() >= deadline:
+            return False
+        time.sleep(interval_s)
+
+
+class ServiceProcess:
+    """A service started as ``python -m <module>`` against `profile`'s endpoint.
+
+    Output goes to a log file (``.log_text()`` reads it). Leaving the context sends SIGTERM,
+    then SIGKILL after `term_timeout_s`, to this process only.
+    """
+
+    def __init__(self, module: str, profile: Profile, args: Sequence[str] = (),
+                 name: str | None = None, env: dict[str, str] | None = None,
+                 term_timeout_s: float = 5.0) -> None:
+        self.module = module
+        self.profile = profile
+        self.args = list(args)
+        self.name = name or module.rsplit(".", 1)[-1]
+        self.env = env
+        self.term_timeout_s = term_timeout_s
+        self.proc: subprocess.Popen[bytes] | None = None
+        self._log = tempfile.NamedTemporaryFile(prefix=f"{self.name}-", suffix=".log", delete=False)
+        self.log_path = Path(self._log.name)
+
+    @property
+    def pid(self) -> int:
+        assert self.proc is not None
+        return self.proc.pid
+
+    def start(self) -> ServiceProcess:
+        cmd = [sys.executable, "-m", self.module]
+        if self.profile.path is not None:
+            cmd += ["--profile", str(self.profile.path)]
+        cmd += ["--endpoint", self.profile.endpoint, "--prefix", self.profile.prefix, *self.args]
+        env = dict(os.environ)
+        env["PYTHONUNBUFFERED"] = "1"
+        if self.env:
+            env.update(self.env)
+        self.proc = subprocess.Popen(cmd, stdout=self._log, stderr=subprocess.STDOUT, env=env)
+        return self
+
+    def __enter__(self) -> ServiceProcess:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def stop(self) -> int | None:
+        """SIGTERM, wait, SIGKILL; returns the exit code."""
+        if self.proc is None:
+            return None
+        if self.proc.poll() is None:
+            try:
+                self.proc.send_signal(signal.SIGCONT)
+                self.proc.send_signal(signal.SIGTERM)
+                self.proc.wait(self.term_timeout_s)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(5.0)
+        self._log.close()
+        return self.proc.returncode
+
+    def log_text(self) -> str:
+        self._log.flush()
+        return self.log_path.read_text(errors="replace")
+
+
+def wait_alive(session: zenoh.Session, profile: Profile, names: set[str], timeout_s: float = 15.0) -> None:
+    """Wait until every service in `names` has its liveliness token up, or raise."""
+    missing = set(names)
+
+    def check() -> bool:
+        nonlocal missing
+        missing = names - alive_services(session, profile.prefix, timeout_s=0.2)
+        return not missing
+
+    if not wait_until(check, timeout_s, 0.05):
+        raise TimeoutError(f"services not alive after {timeout_s} s: {sorted(missing)}")
+
+
+def client_session(profile: Profile) -> zenoh.Session:
+    """A test-side client session on the profile's bus (close it yourself)."""
+    return open_session(profile, "client", timeout_s=5.0)
+
+
+__all__ = [
+    "BusRouter",
+    "ServiceProcess",
+    "client_session",
+    "free_tcp_port",
+    "loopback_profile",
+    "wait_alive",
+    "wait_until",
+]
