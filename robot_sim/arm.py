@@ -1,0 +1,77 @@
+"""Simulated joint position servo of Baxter's right arm (no bus, no clock: pure stepping).
+
+Model per joint, with target q*, position q, time constant τ, velocity limit v_max and
+position limits [q_lo, q_hi]:
+
+    q̇ = clip((q* − q) / τ, −v_max, v_max)        (first-order lag, velocity-saturated)
+    q ← clip(q + q̇ Δt, q_lo, q_hi)
+
+The integration is exact for the unsaturated lag (q* − q decays by exp(−Δt/τ) per step), so
+the servo is stable for any Δt. Units: rad, rad/s, s.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from robot_sim.baxter import RIGHT_ARM_HOME_RAD, JointLimits, arm_model
+
+
+@dataclass
+class ArmState:
+    """Joint positions (rad) and velocities (rad/s), in `RIGHT_ARM_JOINTS` order."""
+
+    position_rad: np.ndarray
+    velocity_rad_s: np.ndarray
+
+
+class SimulatedArm:
+    """First-order-lag joint position servo with velocity and position limits.
+
+    Args:
+        time_constant_s: servo lag τ (s), > 0.
+        limits: joint limits (default: Baxter's URDF limits).
+        initial_position_rad: start posture (default: `RIGHT_ARM_HOME_RAD`).
+    """
+
+    def __init__(
+        self,
+        time_constant_s: float = 0.05,
+        limits: JointLimits | None = None,
+        initial_position_rad: np.ndarray | None = None,
+    ) -> None:
+        if not time_constant_s > 0:
+            raise ValueError(f"servo time constant must be > 0 s, got {time_constant_s}")
+        self.time_constant_s = float(time_constant_s)
+        self.limits = limits if limits is not None else arm_model().limits
+        start = np.array(
+            RIGHT_ARM_HOME_RAD if initial_position_rad is None else initial_position_rad, dtype=float
+        )
+        start = np.clip(start, self.limits.lower_rad, self.limits.upper_rad)
+        self.state = ArmState(position_rad=start, velocity_rad_s=np.zeros_like(start))
+        self.target_rad = start.copy()
+
+    def set_target(self, target_rad: np.ndarray) -> None:
+        """Set the servo target (rad), clipped to the joint limits."""
+        self.target_rad = np.clip(
+            np.asarray(target_rad, dtype=float), self.limits.lower_rad, self.limits.upper_rad
+        )
+
+    def hold(self) -> None:
+        """Hold the current position: the target becomes where the arm is now."""
+        self.target_rad = self.state.position_rad.copy()
+
+    def step(self, dt_s: float) -> ArmState:
+        """Advance the servo by `dt_s` seconds and return the new state."""
+        if dt_s <= 0:
+            return self.state
+        q = self.state.position_rad
+        error = self.target_rad - q
+        # Exact first-order decay over dt, expressed as the mean velocity over the step.
+        lag_velocity = error * (1.0 - np.exp(-dt_s / self.time_constant_s)) / dt_s
+        velocity = np.clip(lag_velocity, -self.limits.velocity_rad_s, self.limits.velocity_rad_s)
+        new_q = np.clip(q + velocity * dt_s, self.limits.lower_rad, self.limits.upper_rad)
+        self.state = ArmState(position_rad=new_q, velocity_rad_s=(new_q - q) / dt_s)
+        return self.state

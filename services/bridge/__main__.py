@@ -1,0 +1,3 @@
+from services.bridge.cli import main
+
+raise SystemExit(main())

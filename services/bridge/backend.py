@@ -1,0 +1,106 @@
+"""Backends of the bridge behind one interface: simulation now, Baxter hardware later.
+
+A backend owns the robot (real or simulated). The bridge node calls, once per tick:
+`step(dt_s)`, then `command(target_rad)` or `hold()`, then `read()`. Extra publications of a
+backend (sensors, ground truth) come through `publish_extras(publish)` so that the contact
+physics and the hardware sensors slot in without touching the node.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from robot_sim.arm import SimulatedArm
+from robot_sim.baxter import RIGHT_ARM_JOINTS, JointLimits, arm_model
+
+
+@dataclass(frozen=True)
+class JointReading:
+    """Measured joints (rad, rad/s, N m) in `Backend.joint_names` order."""
+
+    position_rad: np.ndarray
+    velocity_rad_s: np.ndarray
+    effort_nm: np.ndarray
+
+
+#: publish(topic_suffix, fields) → publishes a message of that topic with the given fields.
+PublishFn = Callable[[str, dict[str, Any]], None]
+
+
+class Backend(Protocol):
+    """What the bridge node needs from a robot."""
+
+    name: str
+    joint_names: tuple[str, ...]
+    limits: JointLimits
+
+    def step(self, dt_s: float) -> None:
+        """Advance the robot by `dt_s` (simulation) or poll it (hardware)."""
+
+    def command(self, target_rad: np.ndarray) -> None:
+        """Servo toward `target_rad` (validated and inside limits)."""
+
+    def hold(self) -> None:
+        """Hold the current position."""
+
+    def read(self) -> JointReading:
+        """The latest measured joint state."""
+
+    def publish_extras(self, publish: PublishFn) -> None:
+        """Publish backend-specific data (sensors, ground truth) for this tick."""
+
+    def close(self) -> None:
+        """Release the robot."""
+
+
+class SimBackend:
+    """Baxter's right arm simulated by `robot_sim.arm.SimulatedArm` in real time."""
+
+    name = "sim"
+
+    def __init__(self, time_constant_s: float = 0.05,
+                 initial_position_rad: np.ndarray | None = None) -> None:
+        self.joint_names = RIGHT_ARM_JOINTS
+        self.limits = arm_model().limits
+        self.arm = SimulatedArm(time_constant_s, self.limits, initial_position_rad)
+        self._holding_target: np.ndarray | None = None
+
+    def step(self, dt_s: float) -> None:
+        self.arm.step(dt_s)
+
+    def command(self, target_rad: np.ndarray) -> None:
+        self._holding_target = None
+        self.arm.set_target(target_rad)
+
+    def hold(self) -> None:
+        # Latch the position at the moment the hold starts, so the arm stays there.
+        if self._holding_target is None:
+            self.arm.hold()
+            self._holding_target = self.arm.target_rad.copy()
+
+    def read(self) -> JointReading:
+        state = self.arm.state
+        return JointReading(
+            position_rad=state.position_rad.copy(),
+            velocity_rad_s=state.velocity_rad_s.copy(),
+            effort_nm=np.zeros_like(state.position_rad),
+        )
+
+    def publish_extras(self, publish: PublishFn) -> None:
+        return None
+
+    def close(self) -> None:
+        return None
+
+
+def make_backend(name: str, **kwargs: Any) -> Backend:
+    """Backend by name (``sim``)."""
+    from services.bridge.errors import BridgeConfigError
+
+    if name == "sim":
+        return SimBackend(**kwargs)
+    raise BridgeConfigError(f"unknown bridge backend {name!r} (known: sim)")

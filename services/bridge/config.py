@@ -1,0 +1,50 @@
+"""Typed configuration of the bridge (`[services.bridge.config]` in a deploy profile)."""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal
+
+import msgspec
+from msgspec import Meta
+
+from services.bridge.errors import BridgeConfigError
+
+
+class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """Bridge settings.
+
+    Attributes:
+        backend: ``sim`` (robot_sim in real time). The hardware backend comes with its issue.
+        rate_hz: joint-state publication and servo rate, Hz.
+        command_timeout_s: hold the arm when no fresh joint command arrived for this long, s
+            (Baxter's own time-out is 0.2 s).
+        servo_time_constant_s: first-order lag of the simulated joint servo, s.
+        limit_tolerance_rad: how far outside a joint limit a command may be before it is
+            rejected (rounding), rad.
+        initial_position_rad: start posture of the simulated arm (7 values), rad; empty for
+            the default home posture.
+    """
+
+    backend: Literal["sim"] = "sim"
+    rate_hz: Annotated[float, Meta(ge=1.0, le=1000.0)] = 100.0
+    command_timeout_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.2
+    servo_time_constant_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.05
+    limit_tolerance_rad: Annotated[float, Meta(ge=0.0, le=0.1)] = 1e-3
+    initial_position_rad: Annotated[list[Annotated[float, Meta(ge=-10.0, le=10.0)]], Meta(max_length=7)] = []
+
+
+def parse_config(table: dict[str, Any]) -> BridgeConfig:
+    """Validate a config table.
+
+    Raises:
+        BridgeConfigError: naming the bad key (e.g. ``Expected `float` >= 1.0 - at `$.rate_hz```).
+    """
+    try:
+        cfg = msgspec.convert(table, BridgeConfig)
+    except msgspec.ValidationError as exc:
+        raise BridgeConfigError(f"invalid [services.bridge.config]: {exc}") from None
+    if cfg.initial_position_rad and len(cfg.initial_position_rad) != 7:
+        raise BridgeConfigError(
+            "invalid [services.bridge.config]: initial_position_rad needs 7 values (right_s0…right_w2)"
+        )
+    return cfg

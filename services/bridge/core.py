@@ -1,0 +1,148 @@
+"""Pure logic of the bridge: joint-command validation and the command time-out.
+
+No I/O and no clock of its own: callers pass the local monotonic time (s).
+
+Rules:
+- A command must name only joints of the arm, each once, with as many positions as names,
+  every position inside the joint's limits (± a small tolerance). A command that breaks a
+  rule is rejected with a one-line reason; the arm then holds where it is (no motion from a
+  bad command) until the next valid command.
+- A command may name a subset of the joints: the others keep their last target.
+- When no valid command arrived for `command_timeout_s`, the arm holds its position
+  (Baxter's own behaviour; 0.2 s by default).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from robot_sim.baxter import JointLimits
+
+
+@dataclass(frozen=True)
+class Decision:
+    """What the arm should do this tick.
+
+    Attributes:
+        target_rad: the servo target (7,), or None to hold the current position.
+        holding: the arm holds (time-out, rejected command, or no command yet).
+        reason: why it holds ("" when following commands).
+    """
+
+    target_rad: np.ndarray | None
+    holding: bool
+    reason: str
+
+
+class CommandRejected(ValueError):
+    """A joint command broke a rule (the message says which)."""
+
+
+class CommandGate:
+    """Validates joint commands and applies the command time-out.
+
+    Args:
+        joint_names: the arm's joints, in servo order.
+        limits: their limits (rad).
+        command_timeout_s: hold after this long without a valid command, s.
+        limit_tolerance_rad: accepted excursion past a limit, rad.
+    """
+
+    def __init__(
+        self,
+        joint_names: Sequence[str],
+        limits: JointLimits,
+        command_timeout_s: float = 0.2,
+        limit_tolerance_rad: float = 1e-3,
+    ) -> None:
+        self.joint_names = tuple(joint_names)
+        self._index = {name: i for i, name in enumerate(self.joint_names)}
+        self.lower_rad = limits.lower_rad - limit_tolerance_rad
+        self.upper_rad = limits.upper_rad + limit_tolerance_rad
+        self._clip_lower = limits.lower_rad
+        self._clip_upper = limits.upper_rad
+        self.command_timeout_s = command_timeout_s
+        self._target_rad: np.ndarray | None = None
+        self._last_valid_s: float | None = None
+        self._rejected_reason = ""
+        self.accepted = 0
+        self.rejected = 0
+
+    def validate(self, names: Sequence[str], position_rad: Sequence[float]) -> list[tuple[int, float]]:
+        """Check a command; return (joint index, position) pairs.
+
+        Raises:
+            CommandRejected: unknown or repeated joint, length mismatch, empty command,
+                non-finite or out-of-limit position.
+        """
+        if len(names) != len(position_rad):
+            raise CommandRejected(
+                f"joint command has {len(names)} names but {len(position_rad)} positions"
+            )
+        if not names:
+            raise CommandRejected("joint command names no joint")
+        pairs: list[tuple[int, float]] = []
+        seen: set[str] = set()
+        for name, value in zip(names, position_rad, strict=True):
+            index = self._index.get(name)
+            if index is None:
+                raise CommandRejected(
+                    f"joint command names unknown joint {name!r} (this arm has {', '.join(self.joint_names)})"
+                )
+            if name in seen:
+                raise CommandRejected(f"joint command names {name!r} twice")
+            seen.add(name)
+            value = float(value)
+            if not np.isfinite(value) or not self.lower_rad[index] <= value <= self.upper_rad[index]:
+                raise CommandRejected(
+                    f"joint command {name}={value:.4f} rad is outside its limits "
+                    f"[{self._clip_lower[index]:.4f}, {self._clip_upper[index]:.4f}] rad"
+                )
+            pairs.append((index, value))
+        return pairs
+
+    def offer(self, names: Sequence[str], position_rad: Sequence[float], now_s: float,
+              current_rad: np.ndarray) -> str | None:
+        """Take a command received at `now_s`.
+
+        Args:
+            current_rad: the arm's current positions (7,), the base for partial commands
+                when no target exists yet.
+
+        Returns:
+            None when accepted, else the one-line reason it was rejected (the arm then holds).
+        """
+        try:
+            pairs = self.validate(names, position_rad)
+        except CommandRejected as exc:
+            self.rejected += 1
+            self._target_rad = None
+            self._last_valid_s = None
+            self._rejected_reason = f"rejected command: {exc}"
+            return str(exc)
+        base = self._target_rad if self._target_rad is not None else np.asarray(current_rad, float)
+        target = base.copy()
+        for index, value in pairs:
+            target[index] = value
+        self._target_rad = np.clip(target, self._clip_lower, self._clip_upper)
+        self._last_valid_s = now_s
+        self._rejected_reason = ""
+        self.accepted += 1
+        return None
+
+    def decide(self, now_s: float) -> Decision:
+        """The servo target for this tick, or hold."""
+        if self._last_valid_s is None or self._target_rad is None:
+            return Decision(None, True, self._rejected_reason or "no joint command yet")
+        age_s = now_s - self._last_valid_s
+        if age_s > self.command_timeout_s:
+            self._target_rad = None
+            self._last_valid_s = None
+            self._rejected_reason = (
+                f"no joint command for {age_s * 1e3:.0f} ms (time-out {self.command_timeout_s * 1e3:.0f} ms)"
+            )
+            return Decision(None, True, self._rejected_reason)
+        return Decision(self._target_rad, False, "")

@@ -1,0 +1,83 @@
+"""Bus wiring of the bridge: joint commands in, joint state (and backend extras) out.
+
+Loop at `rate_hz` (100 Hz): take every joint command received since the last tick through
+the `CommandGate`, step the backend, servo or hold, publish `robot/joint_state`.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from typing import Any
+
+import numpy as np
+
+from bus_schema import topics
+from services.bridge.backend import Backend, make_backend
+from services.bridge.config import BridgeConfig
+from services.bridge.core import CommandGate
+from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
+
+log = logging.getLogger(__name__)
+
+SERVICE_NAME = "bridge"
+
+
+def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None = None) -> int:
+    """Run the bridge until SIGINT/SIGTERM. Returns the exit code."""
+    initial = np.array(config.initial_position_rad) if config.initial_position_rad else None
+    backend = backend or make_backend(
+        config.backend, time_constant_s=config.servo_time_constant_s, initial_position_rad=initial
+    )
+    gate = CommandGate(backend.joint_names, backend.limits, config.command_timeout_s,
+                       config.limit_tolerance_rad)
+    reject_log = RateLimitedLog(log, 1.0)
+    with ServiceNode(SERVICE_NAME, profile) as node:
+        state_pub = node.publisher(topics.JOINT_STATE)
+        commands = node.subscribe(topics.JOINT_COMMAND)
+        extra_pubs: dict[str, Any] = {}
+
+        def publish_extra(suffix: str, fields: dict[str, Any]) -> None:
+            pub = extra_pubs.get(suffix)
+            if pub is None:
+                pub = extra_pubs[suffix] = node.publisher(topics.TOPICS_BY_SUFFIX[suffix])
+            pub.put(**fields)
+
+        log.info("bridge running", extra=kv(backend=backend.name, rate_hz=config.rate_hz,
+                                            command_timeout_s=config.command_timeout_s))
+        last_s = time.monotonic()
+        was_holding = True
+        try:
+            for _tick in node.loop(config.rate_hz):
+                now_s = time.monotonic()
+                dt_s, last_s = now_s - last_s, now_s
+                current = backend.read().position_rad
+                for rx in commands.drain():
+                    reason = gate.offer(rx.msg.names, rx.msg.position_rad, rx.rx_monotonic, current)
+                    if reason is not None:
+                        reject_log.warning("rejected", f"joint command rejected, holding: {reason}",
+                                           source=rx.msg.source, seq=rx.msg.seq)
+                decision = gate.decide(now_s)
+                if decision.holding:
+                    backend.hold()
+                    if not was_holding:
+                        log.info("arm holding", extra=kv(reason=decision.reason))
+                else:
+                    backend.command(decision.target_rad)
+                was_holding = decision.holding
+                backend.step(dt_s)
+                reading = backend.read()
+                state_pub.put(
+                    names=list(backend.joint_names),
+                    position_rad=reading.position_rad.tolist(),
+                    velocity_rad_s=reading.velocity_rad_s.tolist(),
+                    effort_nm=reading.effort_nm.tolist(),
+                    holding=decision.holding,
+                    backend=backend.name,
+                    enabled=True,
+                )
+                backend.publish_extras(publish_extra)
+        finally:
+            backend.close()
+            log.info("bridge stopped", extra=kv(accepted=gate.accepted, rejected=gate.rejected))
+    return 0
