@@ -29,7 +29,22 @@ class EncodeError(SchemaError):
     """A message could not be encoded (too large, or not a message of the topic's type)."""
 
 
-_ENCODER = msgspec.msgpack.Encoder()
+def _enc_hook(obj: Any) -> Any:
+    """Encode numpy scalars and arrays as plain numbers and lists."""
+    import numpy as np
+
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    raise NotSupportedType(f"cannot encode objects of type {type(obj).__name__}")
+
+
+class NotSupportedType(TypeError):
+    """A value of a type the bus cannot carry."""
+
+
+_ENCODER = msgspec.msgpack.Encoder(enc_hook=_enc_hook)
 _DECODERS: dict[type, msgspec.msgpack.Decoder] = {
     t.type: msgspec.msgpack.Decoder(t.type) for t in TOPICS
 }
@@ -49,7 +64,10 @@ def encode(message: Message) -> bytes:
     Raises:
         EncodeError: when the encoded payload exceeds `MAX_PAYLOAD_BYTES`.
     """
-    data = _ENCODER.encode(message)
+    try:
+        data = _ENCODER.encode(message)
+    except TypeError as exc:
+        raise EncodeError(f"{type(message).__name__} cannot be encoded: {exc}") from None
     if len(data) > MAX_PAYLOAD_BYTES:
         raise EncodeError(
             f"{type(message).__name__} encodes to {len(data)} bytes, over the "

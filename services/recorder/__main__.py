@@ -1,0 +1,3 @@
+from services.recorder.cli import main
+
+raise SystemExit(main())

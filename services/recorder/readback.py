@@ -1,0 +1,76 @@
+"""Read a recording back with the Rerun SDK (for `handover-recorder inspect` and tests)."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import rerun.chunk as rrc
+
+from services.recorder.errors import RecorderError
+
+
+def _reader(path: Path) -> rrc.RrdReader:
+    if not Path(path).is_file():
+        raise RecorderError(f"recording {path} does not exist")
+    try:
+        return rrc.RrdReader(str(path))
+    except Exception as exc:
+        raise RecorderError(f"{path} is not a readable Rerun recording: {exc}") from None
+
+
+def entity_row_counts(path: Path) -> dict[str, int]:
+    """Rows logged per entity path (static and temporal)."""
+    counts: dict[str, int] = defaultdict(int)
+    for chunk in _reader(path).stream():
+        counts[chunk.entity_path] += chunk.num_rows
+    return dict(sorted(counts.items()))
+
+
+def read_scalars(path: Path, entity_prefix: str) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Scalar series under `entity_prefix`: {entity: (time_ns, value)}, sorted by time.
+
+    `time_ns` is the ``time`` timeline (the sender's stamp of each message).
+    """
+    prefix = entity_prefix if entity_prefix.startswith("/") else "/" + entity_prefix
+    series: dict[str, list[tuple[int, float]]] = defaultdict(list)
+    for chunk in _reader(path).stream():
+        if not chunk.entity_path.startswith(prefix) or chunk.is_static:
+            continue
+        batch = chunk.to_record_batch()
+        names = batch.schema.names
+        if "time" not in names:
+            continue
+        scalar_cols = [n for n in names if n.endswith("Scalars:scalars")]
+        if not scalar_cols:
+            continue
+        times = batch.column("time").cast(pa.int64()).to_numpy(zero_copy_only=False)
+        values = batch.column(scalar_cols[0]).to_pylist()
+        for t, v in zip(times, values, strict=True):
+            if v:
+                series[chunk.entity_path].append((int(t), float(v[0])))
+    out = {}
+    for entity, rows in series.items():
+        rows.sort()
+        arr = np.array(rows, dtype=float)
+        out[entity] = (arr[:, 0].astype(np.int64), arr[:, 1])
+    return out
+
+
+def read_text_log(path: Path, entity: str = "/events") -> list[str]:
+    """Text log lines at `entity`, in time order."""
+    rows: list[tuple[int, str]] = []
+    for chunk in _reader(path).stream():
+        if chunk.entity_path != entity or chunk.is_static:
+            continue
+        batch = chunk.to_record_batch()
+        text_cols = [n for n in batch.schema.names if n.endswith("TextLog:text")]
+        if not text_cols or "time" not in batch.schema.names:
+            continue
+        times = batch.column("time").cast(pa.int64()).to_pylist()
+        for t, text in zip(times, batch.column(text_cols[0]).to_pylist(), strict=True):
+            rows.append((t, text[0] if isinstance(text, list) else text))
+    rows.sort()
+    return [text for _, text in rows]
