@@ -1,0 +1,256 @@
+"""`handover-up`: host the bus, start every service, run a job, shut down in order.
+
+1. Open the Zenoh router in this process on the profile's loopback endpoint.
+2. Start the enabled services (recorder first) as child processes, output prefixed ``[name]``.
+3. Wait for every liveliness token (time-out names the services that did not come up).
+4. Run the job (``demo``: joint-space demo; ``check``: stop once all are alive; ``none``: run
+   until Ctrl-C) while a monitor thread watches the children and their liveliness.
+5. Shut down in order: SIGINT, SIGTERM after `term_timeout_s`, SIGKILL after as long again.
+
+Exit codes: 0 job succeeded; 1 a service failed or the job failed; 2 bad input (profile,
+arguments, port in use); 130 interrupted by Ctrl-C/SIGTERM.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from services.launcher.core import (
+    RECORDER,
+    decide_restart,
+    describe_exit,
+    recording_path,
+    service_command,
+    shutdown_order,
+    start_order,
+)
+from services.launcher.processes import Child, emit
+from services.runtime import LivelinessWatcher, Profile, ServiceNode, open_session
+from services.runtime.errors import BusError, ServiceError
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+JOBS = ("demo", "check", "none")
+
+
+class LauncherError(ServiceError):
+    """handover-up could not start the stack (the message names the service or setting)."""
+
+
+def say(text: str) -> None:
+    emit(f"[launcher] {text}\n")
+
+
+@dataclass
+class LaunchOptions:
+    """What `handover-up` was asked to do.
+
+    Attributes:
+        job: ``demo``, ``check`` or ``none``.
+        run_id: name of this run (recording file name).
+        recording_dir: where the recorder writes.
+        alive_timeout_s: every service must be alive within this time, s.
+        term_timeout_s: SIGINT → SIGTERM and SIGTERM → SIGKILL delays, s.
+    """
+
+    job: str = "demo"
+    run_id: str = field(default_factory=lambda: time.strftime("%Y%m%d-%H%M%S"))
+    recording_dir: Path = Path("recordings")
+    alive_timeout_s: float = 15.0
+    term_timeout_s: float = 5.0
+
+
+class Launcher:
+    """Runs one stack from a profile (see module docstring)."""
+
+    def __init__(self, profile: Profile, options: LaunchOptions) -> None:
+        if options.job not in JOBS:
+            raise LauncherError(f"unknown job {options.job!r} (choose from {', '.join(JOBS)})")
+        self.profile = profile
+        self.options = options
+        self.specs = start_order(profile.services)
+        if not self.specs:
+            raise LauncherError(f"profile {profile.path} enables no service")
+        self.width = max(len(s.name) for s in self.specs + []) if self.specs else 8
+        self.width = max(self.width, len("launcher"))
+        self.children: dict[str, Child] = {}
+        self.restarts: dict[str, int] = {s.name: 0 for s in self.specs}
+        self.recording: Path | None = None
+        self.stop_requested = threading.Event()
+        self.failure: str | None = None
+        self.episode_running = False
+        self.shutting_down = False
+        self._lock = threading.Lock()
+
+    # ------------------------------------------------------------------ children
+    def _extra_args(self, name: str, attempt: int) -> list[str]:
+        if name == RECORDER:
+            self.recording = recording_path(self.options.recording_dir, self.options.run_id, attempt)
+            return ["--output", str(self.recording)]
+        return []
+
+    def _start(self, name: str) -> Child:
+        spec = next(s for s in self.specs if s.name == name)
+        child = Child(name, service_command(spec, self.profile, self._extra_args(name, self.restarts[name])),
+                      self.width)
+        child.start()
+        self.children[name] = child
+        return child
+
+    def _fail(self, reason: str) -> None:
+        with self._lock:
+            if self.failure is None:
+                self.failure = reason
+        say(f"FAILURE: {reason}")
+
+    def _monitor(self, watcher: LivelinessWatcher) -> None:
+        seen_events = 0
+        while not self.stop_requested.is_set():
+            events = watcher.events()
+            for _t, name, alive in events[seen_events:]:
+                if not alive and not self.shutting_down and name in self.children:
+                    say(f"{name} lost its liveliness token")
+            seen_events = len(events)
+            if not self.shutting_down:
+                for name, child in list(self.children.items()):
+                    code = child.poll()
+                    if code is None:
+                        continue
+                    spec = next(s for s in self.specs if s.name == name)
+                    decision = decide_restart(spec, self.restarts[name], self.episode_running, code)
+                    if decision.restart:
+                        say(decision.reason)
+                        self.restarts[name] += 1
+                        self._start(name)
+                    else:
+                        del self.children[name]
+                        self._fail(decision.reason)
+                        self.stop_requested.set()
+            self.stop_requested.wait(0.02)
+
+    def _wait_alive(self, watcher: LivelinessWatcher) -> float:
+        names = {s.name for s in self.specs}
+        start = time.monotonic()
+        deadline = start + self.options.alive_timeout_s
+        while True:
+            missing = names - watcher.alive()
+            if not missing:
+                return time.monotonic() - start
+            for name in sorted(missing):
+                code = self.children[name].poll() if name in self.children else None
+                if code is not None:
+                    raise LauncherError(f"{name} {describe_exit(code)} before it came up (see its [${name}] output above)".replace("$", ""))
+            if self.stop_requested.is_set():
+                raise KeyboardInterrupt
+            if time.monotonic() > deadline:
+                raise LauncherError(
+                    f"{', '.join(sorted(missing))} did not come up within {self.options.alive_timeout_s:.0f} s "
+                    f"(no liveliness token under {self.profile.prefix}/alive/); check its output above"
+                )
+            time.sleep(0.01)
+
+    def _shutdown(self) -> None:
+        self.shutting_down = True
+        for spec in shutdown_order(self.specs):
+            child = self.children.get(spec.name)
+            if child is None:
+                continue
+            code, how = child.stop(self.options.term_timeout_s)
+            say(f"stopped {spec.name} (pid {child.pid}) with {how}: {describe_exit(code)}")
+
+    # ------------------------------------------------------------------ main
+    def run(self) -> int:
+        def on_signal(signum: int, _frame: object) -> None:
+            if not self.stop_requested.is_set():
+                say(f"{signal.Signals(signum).name} received: shutting down")
+            self.interrupted = True
+            self.stop_requested.set()
+
+        self.interrupted = False
+        previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        t0 = time.monotonic()
+        try:
+            router = open_session(self.profile, "router", timeout_s=0.0)
+        except BusError as exc:
+            for s, h in previous.items():
+                signal.signal(s, h)
+            raise LauncherError(
+                f"cannot host the bus on {self.profile.endpoint} (is another handover-up running? "
+                f"use --port auto): {exc}"
+            ) from None
+        watcher = LivelinessWatcher(router, self.profile.prefix)
+        monitor: threading.Thread | None = None
+        code = EXIT_FAILED
+        try:
+            say(f"bus on {self.profile.endpoint} (router in-process, loopback only, prefix {self.profile.prefix})")
+            for spec in self.specs:
+                child = self._start(spec.name)
+                say(f"started {spec.name} (pid {child.pid}): python -m {spec.module}")
+            alive_s = self._wait_alive(watcher)
+            say(f"all {len(self.specs)} services alive {alive_s:.2f} s after start "
+                f"({time.monotonic() - t0:.2f} s after launch)")
+            self.alive_after_s = time.monotonic() - t0
+            monitor = threading.Thread(target=self._monitor, args=(watcher,), name="monitor", daemon=True)
+            monitor.start()
+            code = self._run_job()
+        except KeyboardInterrupt:
+            code = EXIT_INTERRUPTED
+        except LauncherError as exc:
+            say(f"FAILURE: {exc}")
+            code = EXIT_FAILED
+        finally:
+            self.stop_requested.set()
+            if monitor is not None:
+                monitor.join(timeout=2.0)
+            self._shutdown()
+            watcher.undeclare()
+            router.close()
+            for s, h in previous.items():
+                signal.signal(s, h)
+        if self.failure and code == EXIT_OK:
+            code = EXIT_FAILED
+        if self.interrupted and code == EXIT_OK:
+            code = EXIT_INTERRUPTED
+        if self.recording is not None and self.recording.exists():
+            say(f"recording: {self.recording}  (open it with: rerun {self.recording})")
+        say(f"exit {code}" + (f": {self.failure}" if self.failure else ""))
+        return code
+
+    def _abort_reason(self) -> str | None:
+        if self.failure:
+            return self.failure
+        if self.stop_requested.is_set():
+            return "interrupted"
+        return None
+
+    def _run_job(self) -> int:
+        job = self.options.job
+        if job == "check":
+            return EXIT_OK
+        if job == "none":
+            say("stack running; press Ctrl-C to stop")
+            self.stop_requested.wait()
+            return EXIT_INTERRUPTED if self.interrupted else (EXIT_FAILED if self.failure else EXIT_OK)
+        from services.launcher.demo import run_demo
+
+        self.episode_running = True
+        with ServiceNode("launcher", self.profile, install_signal_handlers=False) as node:
+            stopper = threading.Thread(target=lambda: (self.stop_requested.wait(), node.request_stop()),
+                                       daemon=True)
+            stopper.start()
+            say("job: joint-space demo")
+            result = run_demo(node, self._abort_reason)
+        self.episode_running = False
+        if self.interrupted:
+            return EXIT_INTERRUPTED
+        if not result.ok:
+            if not self.failure:
+                self._fail(f"demo failed: {result.message}")
+            return EXIT_FAILED
+        say("summary:")
+        for line in result.lines:
+            say("  " + line)
+        return EXIT_OK
