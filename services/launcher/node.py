@@ -131,8 +131,8 @@ class Launcher:
                         self.stop_requested.set()
             self.stop_requested.wait(0.02)
 
-    def _wait_alive(self, watcher: LivelinessWatcher) -> float:
-        names = {s.name for s in self.specs}
+    def _wait_alive(self, watcher: LivelinessWatcher, names: set[str] | None = None) -> float:
+        names = names if names is not None else {s.name for s in self.specs}
         start = time.monotonic()
         deadline = start + self.options.alive_timeout_s
         while True:
@@ -189,6 +189,9 @@ class Launcher:
             for spec in self.specs:
                 child = self._start(spec.name)
                 say(f"started {spec.name} (pid {child.pid}): python -m {spec.module}")
+                if spec.name == RECORDER:
+                    # Nothing may be published before the recorder listens.
+                    self._wait_alive(watcher, {RECORDER})
             alive_s = self._wait_alive(watcher)
             say(f"all {len(self.specs)} services alive {alive_s:.2f} s after start "
                 f"({time.monotonic() - t0:.2f} s after launch)")

@@ -90,14 +90,6 @@ def run_recorder(profile: Profile, output: Path, log_urdf: bool = True,
     stats = RecorderStats()
     bad_log = RateLimitedLog(log, 1.0)
     inbox: queue.SimpleQueue[tuple[str, bytes]] = queue.SimpleQueue()
-    urdf = None
-    if log_urdf:
-        try:
-            urdf = _UrdfJoints(rec)
-        except Exception as exc:  # the recording is still useful without the meshes
-            log.warning("could not log Baxter's URDF: %s", exc)
-    rec.send_blueprint(_blueprint(urdf.robot_name if urdf else None))
-    rec.flush()
     last_event: dict[str, tuple] = {}
 
     def on_sample(sample: zenoh.Sample) -> None:  # Zenoh thread: enqueue only
@@ -126,8 +118,17 @@ def run_recorder(profile: Profile, output: Path, log_urdf: bool = True,
             urdf.log(rec, msg)
         stats.logged[topic.suffix] = stats.logged.get(topic.suffix, 0) + 1
 
+    urdf = None
     with ServiceNode(SERVICE_NAME, profile) as node:
+        # Subscribe first: messages queue up while the 3-D model loads.
         subscriber = node.session.declare_subscriber(f"{profile.prefix}/**", on_sample)
+        if log_urdf:
+            try:
+                urdf = _UrdfJoints(rec)
+            except Exception as exc:  # the recording is still useful without the meshes
+                log.warning("could not log Baxter's URDF: %s", exc)
+        rec.send_blueprint(_blueprint(urdf.robot_name if urdf else None))
+        rec.flush()
         log.info("recording", extra=kv(output=str(output), keys=f"{profile.prefix}/**"))
         next_flush = time.monotonic() + flush_period_s
         try:

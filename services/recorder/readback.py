@@ -54,8 +54,8 @@ def read_scalars(path: Path, entity_prefix: str) -> dict[str, tuple[np.ndarray, 
     out = {}
     for entity, rows in series.items():
         rows.sort()
-        arr = np.array(rows, dtype=float)
-        out[entity] = (arr[:, 0].astype(np.int64), arr[:, 1])
+        out[entity] = (np.array([t for t, _ in rows], dtype=np.int64),
+                       np.array([v for _, v in rows], dtype=float))
     return out
 
 

@@ -1,0 +1,164 @@
+"""handover-up end to end: bridge + recorder as real processes on a loopback bus."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import psutil
+import pytest
+
+from bus_schema import topics
+from services.recorder.readback import read_scalars
+from services.runtime import ServiceNode
+from services.runtime.testing import free_tcp_port, loopback_profile, wait_until
+
+pytestmark = pytest.mark.integration
+
+
+def _launch(tmp_path, *args):
+    port = free_tcp_port()
+    cmd = [sys.executable, "-m", "services.launcher", "--port", str(port), "--recording-dir",
+           str(tmp_path), "--run-id", "t", *args]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    return proc, loopback_profile(port)
+
+
+def _children(proc):
+    try:
+        return psutil.Process(proc.pid).children(recursive=True)
+    except psutil.NoSuchProcess:
+        return []
+
+
+def _alive(pids):
+    out = []
+    for pid in pids:
+        try:
+            if psutil.Process(pid).status() != psutil.STATUS_ZOMBIE:
+                out.append(pid)
+        except psutil.NoSuchProcess:
+            pass
+    return out
+
+
+def _finish(proc, timeout=30):
+    try:
+        out, _ = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        for child in _children(proc):
+            child.kill()
+        proc.kill()
+        out, _ = proc.communicate()
+        pytest.fail(f"handover-up did not exit in {timeout} s:\n{out}")
+    return out
+
+
+def test_demo_moves_the_arm_and_the_recording_holds_the_motion(tmp_path):
+    proc, profile = _launch(tmp_path)
+    published: list = []
+    node = None
+    try:
+        node = ServiceNode("observer", profile, install_signal_handlers=False, connect_timeout_s=20)
+        node.open()
+        states = node.subscribe(topics.JOINT_STATE, queue_size=100_000)
+        out = _finish(proc, 60)
+        published = [r.msg for r in states.drain()]
+    finally:
+        if node:
+            node.close()
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, out
+    assert "all 2 services alive" in out and "[bridge]" in out and "[recorder]" in out
+    assert "summary:" in out and "final error" in out
+    recording = tmp_path / "handover-t.rrd"
+    assert recording.is_file()
+
+    # The arm really moved: right_s0 swings by ~0.8 rad in the demo.
+    s0 = np.array([m.position_rad[0] for m in published])
+    assert np.ptp(s0) > 0.6
+
+    # What was published is what was recorded, matched by the sender's stamp.
+    series = read_scalars(recording, "/robot/joint_position")
+    assert set(series) == {f"/robot/joint_position/{n}" for n in published[0].names}
+    for j, name in enumerate(published[0].names):
+        times, values = series[f"/robot/joint_position/{name}"]
+        recorded = dict(zip(times.tolist(), values.tolist(), strict=True))
+        matched = [(recorded[m.stamp_ns], m.position_rad[j]) for m in published if m.stamp_ns in recorded]
+        assert len(matched) == len(published), f"{name}: only {len(matched)}/{len(published)} recorded"
+        rec_vals, pub_vals = np.array(matched).T
+        assert np.array_equal(rec_vals, pub_vals)
+
+
+def test_killing_the_bridge_is_reported_and_the_stack_stops(tmp_path):
+    proc, profile = _launch(tmp_path, "--job", "none")
+    try:
+        assert wait_until(lambda: len(_children(proc)) >= 2, 20)
+        bridge = None
+
+        def find_bridge():
+            nonlocal bridge
+            for child in _children(proc):
+                try:
+                    if "services.bridge" in " ".join(child.cmdline()):
+                        bridge = child
+                        return True
+                except psutil.NoSuchProcess:
+                    pass
+            return False
+
+        assert wait_until(find_bridge, 20)
+        time.sleep(2.0)  # let the stack come up fully
+        pids = [c.pid for c in _children(proc)]
+        bridge.send_signal(signal.SIGKILL)
+        out = _finish(proc, 30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 1, out
+    assert "bridge was killed by SIGKILL" in out
+    assert "FAILURE" in out
+    assert _alive(pids) == []
+
+
+def test_ctrl_c_leaves_no_process_behind(tmp_path):
+    proc, profile = _launch(tmp_path, "--job", "none")
+    try:
+        assert wait_until(lambda: len(_children(proc)) >= 2, 20)
+        time.sleep(2.5)
+        pids = [c.pid for c in _children(proc)]
+        assert len(pids) >= 2
+        proc.send_signal(signal.SIGINT)
+        out = _finish(proc, 30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, out
+    assert "SIGINT received: shutting down" in out
+    assert "stopped bridge" in out and "stopped recorder" in out
+    assert wait_until(lambda: _alive(pids) == [], 5.0), f"left behind: {_alive(pids)}"
+    assert (tmp_path / "handover-t.rrd").is_file()
+
+
+def test_launcher_reports_a_busy_port_in_one_line(tmp_path):
+    port = free_tcp_port()
+    profile = loopback_profile(port)
+    from services.runtime.testing import BusRouter
+
+    with BusRouter(profile):
+        res = subprocess.run([sys.executable, "-m", "services.launcher", "--port", str(port), "--job", "check"],
+                             capture_output=True, text=True, timeout=30)
+    assert res.returncode == 1
+    assert "cannot host the bus" in res.stdout + res.stderr and "--port auto" in res.stdout + res.stderr
+
+
+def test_bad_arguments_exit_2_with_one_line():
+    res = subprocess.run([sys.executable, "-m", "services.launcher", "--profile", "nope"],
+                         capture_output=True, text=True, timeout=30)
+    assert res.returncode == 2
+    lines = [line for line in (res.stdout + res.stderr).splitlines() if line.strip()]
+    assert len(lines) == 1 and "profile 'nope' not found" in lines[0]

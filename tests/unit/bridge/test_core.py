@@ -1,0 +1,115 @@
+"""Bridge command gate (validation, time-out) and the simulated servo."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from robot_sim.arm import SimulatedArm
+from robot_sim.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS, arm_model
+from services.bridge.core import CommandGate, CommandRejected
+
+J = list(RIGHT_ARM_JOINTS)
+HOME = np.array(RIGHT_ARM_HOME_RAD)
+
+
+@pytest.fixture
+def gate():
+    return CommandGate(J, arm_model().limits, command_timeout_s=0.2)
+
+
+def test_valid_command_is_followed_until_timeout(gate):
+    target = HOME + 0.1
+    assert gate.offer(J, list(target), now_s=10.0, current_rad=HOME) is None
+    d = gate.decide(10.19)
+    assert not d.holding and np.allclose(d.target_rad, target)
+    d = gate.decide(10.21)
+    assert d.holding and "time-out 200 ms" in d.reason
+    assert gate.decide(10.22).holding  # stays holding until a new command
+
+
+def test_no_command_yet_holds(gate):
+    d = gate.decide(0.0)
+    assert d.holding and d.target_rad is None and "no joint command" in d.reason
+
+
+@pytest.mark.parametrize("names,values,match", [
+    (["left_s0"], [0.0], "unknown joint 'left_s0'"),
+    (["right_s0", "right_s0"], [0.0, 0.1], "twice"),
+    (["right_s0"], [0.0, 0.1], "1 names but 2 positions"),
+    ([], [], "names no joint"),
+    (["right_e1"], [3.0], "outside its limits"),
+    (["right_s0"], [float("nan")], "outside its limits"),
+])
+def test_bad_commands_rejected_and_arm_holds(gate, names, values, match):
+    assert gate.offer(J, list(HOME + 0.05), 1.0, HOME) is None
+    reason = gate.offer(names, values, 1.01, HOME)
+    assert reason is not None and match.split("'")[0] in reason
+    with pytest.raises(CommandRejected):
+        gate.validate(names, values)
+    d = gate.decide(1.02)
+    assert d.holding and d.target_rad is None and "rejected command" in d.reason
+    assert gate.rejected == 1
+
+
+def test_partial_command_keeps_other_targets(gate):
+    gate.offer(J, list(HOME), 0.0, HOME)
+    gate.offer(["right_w2"], [1.0], 0.05, HOME)
+    d = gate.decide(0.06)
+    expected = HOME.copy()
+    expected[6] = 1.0
+    assert np.allclose(d.target_rad, expected)
+
+
+def test_limit_tolerance_accepts_rounding_and_clips(gate):
+    upper = arm_model().limits.upper_rad[3]
+    assert gate.offer(["right_e1"], [upper + 5e-4], 0.0, HOME) is None
+    assert gate.decide(0.01).target_rad[3] == pytest.approx(upper)
+
+
+def test_servo_is_first_order_lag():
+    arm = SimulatedArm(time_constant_s=0.05, initial_position_rad=HOME)
+    arm.set_target(HOME + np.array([0.02, 0, 0, 0, 0, 0, 0]))
+    arm.step(0.05)  # one time constant: 63.2 % of a small step (no velocity saturation)
+    assert arm.state.position_rad[0] - HOME[0] == pytest.approx(0.02 * (1 - np.exp(-1)), rel=1e-9)
+
+
+def test_servo_respects_velocity_limit():
+    limits = arm_model().limits
+    arm = SimulatedArm(time_constant_s=0.05, initial_position_rad=HOME)
+    arm.set_target(HOME + 1.0)
+    for _ in range(10):
+        arm.step(0.01)
+        assert np.all(np.abs(arm.state.velocity_rad_s) <= limits.velocity_rad_s + 1e-12)
+    assert np.abs(arm.state.velocity_rad_s[0]) == pytest.approx(1.5)  # saturated at 1.5 rad/s
+
+
+def test_servo_stays_within_position_limits():
+    limits = arm_model().limits
+    arm = SimulatedArm(time_constant_s=0.02, initial_position_rad=HOME)
+    arm.set_target(limits.upper_rad + 1.0)
+    for _ in range(500):
+        arm.step(0.01)
+    assert np.all(arm.state.position_rad <= limits.upper_rad)
+    assert np.allclose(arm.state.position_rad, limits.upper_rad)
+
+
+def test_hold_stops_a_moving_arm_within_a_tick():
+    arm = SimulatedArm(time_constant_s=0.05, initial_position_rad=HOME)
+    arm.set_target(HOME + 0.5)
+    for _ in range(20):
+        arm.step(0.01)
+    assert np.max(np.abs(arm.state.velocity_rad_s)) > 0.5
+    arm.hold()
+    arm.step(0.01)
+    assert np.max(np.abs(arm.state.velocity_rad_s)) == 0.0
+
+
+def test_fk_matches_an_independent_chain_length_bound():
+    model = arm_model()
+    shoulder = model.frame_positions(HOME, ["right_upper_shoulder"])[0]
+    for q in (HOME, np.zeros(7), model.limits.lower_rad * 0.5):
+        tool, rot = model.tool_pose(q)
+        assert np.allclose(rot @ rot.T, np.eye(3), atol=1e-9)
+        # Baxter's arm is about 1.2 m from shoulder to gripper tip at full stretch.
+        assert 0.1 < np.linalg.norm(tool - shoulder) < 1.35

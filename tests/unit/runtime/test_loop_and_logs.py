@@ -1,0 +1,62 @@
+"""RateLoop timing bookkeeping and the rate-limited log."""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+
+import pytest
+
+from services.runtime.logs import RateLimitedLog
+from services.runtime.loop import RateLoop
+
+
+def test_loop_ends_on_stop_event_and_counts_ticks():
+    stop = threading.Event()
+    loop = RateLoop(200.0, stop)
+    seen = []
+    for tick in loop:
+        seen.append(tick)
+        if tick == 9:
+            stop.set()
+    assert seen == list(range(10))
+    assert loop.stats.ticks == 10
+
+
+def test_loop_paces_at_its_rate():
+    stop = threading.Event()
+    loop = RateLoop(100.0, stop)
+    t0 = time.monotonic()
+    for tick in loop:
+        if tick == 20:
+            stop.set()
+    elapsed = time.monotonic() - t0
+    assert elapsed >= 0.19  # 20 periods of 10 ms must have passed (never faster than the rate)
+
+
+def test_overruns_are_counted_and_deadlines_skipped():
+    stop = threading.Event()
+    loop = RateLoop(100.0, stop)
+    for tick in loop:
+        if tick == 0:
+            time.sleep(0.035)  # miss about three deadlines
+        if tick == 2:
+            stop.set()
+    assert loop.stats.overruns >= 1
+    assert loop.stats.skipped >= 2
+
+
+def test_rate_must_be_positive():
+    with pytest.raises(ValueError):
+        RateLoop(0.0, threading.Event())
+
+
+def test_rate_limited_log_counts_everything_logs_once_per_period(caplog):
+    limiter = RateLimitedLog(logging.getLogger("t"), period_s=60.0)
+    with caplog.at_level(logging.WARNING):
+        for _ in range(100):
+            limiter.warning("bad", "bad payload")
+        limiter.warning("other", "other problem")
+    assert limiter.counts == {"bad": 100, "other": 1}
+    assert [r.getMessage() for r in caplog.records] == ["bad payload", "other problem"]

@@ -1,0 +1,84 @@
+"""Deploy profiles and the Zenoh configs built from them."""
+
+from __future__ import annotations
+
+import pytest
+
+from services.runtime.errors import ProfileError
+from services.runtime.profile import load_profile_file, validate_endpoint, zenoh_config, zenoh_config_dict
+
+
+def test_default_profile_is_loopback_with_scouting_off():
+    profile = load_profile_file("sim")
+    assert profile.endpoint.startswith("tcp/127.0.0.1:")
+    assert profile.prefix == "handover/v1"
+    for mode in ("client", "router", "peer"):
+        conf = zenoh_config_dict(profile, mode)
+        assert conf["scouting"]["multicast"]["enabled"] is False
+        assert conf["scouting"]["gossip"]["enabled"] is False
+        endpoints = conf["listen"]["endpoints"] + conf["connect"]["endpoints"]
+        assert endpoints == [profile.endpoint]
+        zenoh_config(profile, mode)  # Zenoh itself accepts it
+
+
+def test_router_listens_clients_connect():
+    profile = load_profile_file("sim")
+    assert zenoh_config_dict(profile, "router")["listen"]["endpoints"] == [profile.endpoint]
+    assert zenoh_config_dict(profile, "router")["connect"]["endpoints"] == []
+    assert zenoh_config_dict(profile, "client")["listen"]["endpoints"] == []
+
+
+def test_overrides_cannot_turn_scouting_on(tmp_path):
+    path = tmp_path / "p.toml"
+    path.write_text('[bus]\nendpoint = "tcp/127.0.0.1:7999"\n'
+                    '[bus.zenoh.scouting.multicast]\nenabled = true\n')
+    conf = zenoh_config_dict(load_profile_file(path), "client")
+    assert conf["scouting"]["multicast"]["enabled"] is False
+
+
+@pytest.mark.parametrize("endpoint", ["tcp/0.0.0.0:7447", "tcp/192.168.1.10:7447", "tcp/[::]:7447"])
+def test_non_loopback_endpoints_refused(endpoint):
+    with pytest.raises(ProfileError, match="not on loopback"):
+        validate_endpoint(endpoint)
+    validate_endpoint(endpoint.replace("[::]", "[::1]").replace("0.0.0.0", "127.0.0.1")
+                      .replace("192.168.1.10", "127.0.0.1"))
+
+
+@pytest.mark.parametrize("endpoint", ["127.0.0.1:7447", "tcp/127.0.0.1", "tcp/127.0.0.1:99999", "ftp/127.0.0.1:1"])
+def test_malformed_endpoints_refused(endpoint):
+    with pytest.raises(ProfileError):
+        validate_endpoint(endpoint)
+
+
+def test_with_bus_validates_overrides():
+    profile = load_profile_file("sim")
+    assert profile.with_bus("tcp/127.0.0.1:9000").endpoint == "tcp/127.0.0.1:9000"
+    with pytest.raises(ProfileError):
+        profile.with_bus("tcp/10.0.0.1:9000")
+
+
+@pytest.mark.parametrize("text,match", [
+    ("[bus\n", "invalid TOML"),
+    ('[bus]\nprefix = "a/*"\n', "prefix"),
+    ('[services.bridge]\nrestart = "always"\n', "restart"),
+    ('[services.bridge]\ncolour = "red"\n', "unknown keys"),
+    ('[services.bridge]\nargs = "x"\n', "args"),
+])
+def test_invalid_profiles_name_the_problem(tmp_path, text, match):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ProfileError, match=match):
+        load_profile_file(path)
+
+
+def test_missing_profile_lists_known_ones():
+    with pytest.raises(ProfileError, match="known: .*sim"):
+        load_profile_file("no-such-profile")
+
+
+def test_service_specs_from_profile():
+    profile = load_profile_file("sim")
+    bridge = profile.service("bridge")
+    assert bridge is not None and bridge.safety and bridge.restart == "never"
+    assert profile.service_config("bridge")["command_timeout_s"] == 0.2
+    assert profile.service_config("nobody") == {}
