@@ -1,0 +1,561 @@
+"""Release controllers of the object-transfer loop, all behind one vectorised interface.
+
+Every controller implements `robot_sim.contact.interfaces.GripController`:
+
+    controller.reset(n_episodes)              # fresh state for a batch of episodes
+    grip_force_n = controller.step(sample)    # SensorSample in, commanded F_G (N) out
+
+and works on numpy arrays of shape (n_episodes,), so the same object runs one live episode
+(n = 1, the gripper service) or a Monte-Carlo batch. After each step, `controller.mode`
+holds the controller's own estimate of the system mode (`Mode.GRASP/SLIP/RELEASE`) per
+episode, from what it can sense (not ground truth).
+
+Frames and units (thesis Fig. 15, DESIGN §5): gripper frame, x along the pull toward the
+receiver, y DOWN; forces in N, accelerations in m/s² (a_y > 0: object falling), times in s.
+
+Controllers:
+- `FailSafeController`: the thesis's fail-safe law with integrator (eq 3.19),
+      F_G[n+1] = k_i (α F_sy[n] + β a_y[n] − γ F_sx[n] − F_margin) + (1 − k_i) F_G[n],
+  clamped to [0, F_max]. Presets FS1/FS2/FS3 (§3.6.1.1) and the §3.5 simulation set with
+  γ = 1 (Table IV as printed) or γ = 5 (the text of §3.5).
+- `HumanInspiredController`: Chan et al.'s law (eq 3.22, Fig. 25), F_G = m F_L + F_ZLG.
+- Baselines of §3.1: `TimedRelease`, `ForceThresholdRelease` (Deyle et al.),
+  `DisplacementRelease` (Bohren et al., release when an impedance-controlled hand is
+  displaced by more than a distance).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Callable
+
+import numpy as np
+
+from robot_sim.contact.interfaces import GripController, Mode, SensorSample
+from services.gripper.errors import GripperError
+
+#: ISO/TS 15066 quasi-static limit for the hand, N: no controller may command more.
+ABSOLUTE_MAX_GRIP_FORCE_N = 140.0
+#: Default control period, s (the thesis's force sensor rate, 100 Hz).
+DEFAULT_PERIOD_S = 0.01
+#: |a_y| above which a controller reports SLIP rather than GRASP, m/s².
+DEFAULT_SLIP_ACCEL_THRESHOLD_M_S2 = 0.5
+#: Slip speed above which a controller reports SLIP (when the optical sensor sees the
+#: object), m/s.
+DEFAULT_SLIP_SPEED_THRESHOLD_M_S = 0.005
+
+__all__ = [
+    "ABSOLUTE_MAX_GRIP_FORCE_N",
+    "CONTROLLER_NAMES",
+    "DisplacementRelease",
+    "FailSafeController",
+    "FailSafeParams",
+    "FS_PRESETS",
+    "ForceThresholdRelease",
+    "HumanInspiredController",
+    "HumanInspiredParams",
+    "TimedRelease",
+    "fail_safe_law",
+    "human_inspired_grip_n",
+    "make_controller",
+]
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _check_finite(name: str, value: float, *, positive: bool = False, nonneg: bool = False) -> None:
+    if not math.isfinite(value):
+        raise GripperError(f"{name} must be finite, got {value!r}")
+    if positive and value <= 0.0:
+        raise GripperError(f"{name} must be > 0, got {value!r}")
+    if nonneg and value < 0.0:
+        raise GripperError(f"{name} must be >= 0, got {value!r}")
+
+
+def _check_max_force(max_grip_force_n: float) -> None:
+    _check_finite("max_grip_force_n", max_grip_force_n, positive=True)
+    if max_grip_force_n > ABSOLUTE_MAX_GRIP_FORCE_N:
+        raise GripperError(
+            f"max_grip_force_n = {max_grip_force_n} N exceeds the {ABSOLUTE_MAX_GRIP_FORCE_N} N "
+            "hand pinch limit (ISO/TS 15066); lower it"
+        )
+
+
+def _as_episodes(values, n_episodes: int, name: str) -> np.ndarray:
+    """Broadcast a sensor field to shape (n_episodes,), float64."""
+    arr = np.asarray(values, dtype=float)
+    if arr.ndim == 0:
+        return np.full(n_episodes, float(arr))
+    if arr.shape != (n_episodes,):
+        raise GripperError(
+            f"sensor field {name} has shape {arr.shape}, expected ({n_episodes},): "
+            "call reset(n_episodes) with the batch size of the samples"
+        )
+    return arr
+
+
+def _estimate_mode(
+    grip_force_n: np.ndarray,
+    sample: SensorSample,
+    n_episodes: int,
+    slip_accel_threshold_m_s2: float,
+    slip_speed_threshold_m_s: float,
+) -> np.ndarray:
+    """Controller-side mode estimate: RELEASE where the command is zero, SLIP where the
+    optical sensor sees the object move (|a_y| or slip speed above threshold), else GRASP."""
+    accel = np.abs(_as_episodes(sample.accel_y_m_s2, n_episodes, "accel_y_m_s2"))
+    speed = np.hypot(
+        _as_episodes(sample.slip_velocity_x_m_s, n_episodes, "slip_velocity_x_m_s"),
+        _as_episodes(sample.slip_velocity_y_m_s, n_episodes, "slip_velocity_y_m_s"),
+    )
+    valid = np.broadcast_to(np.asarray(sample.optical_valid, dtype=bool), (n_episodes,))
+    moving = (accel > slip_accel_threshold_m_s2) | (valid & (speed > slip_speed_threshold_m_s))
+    mode = np.where(moving, int(Mode.SLIP), int(Mode.GRASP))
+    return np.where(grip_force_n <= 0.0, int(Mode.RELEASE), mode).astype(np.int8)
+
+
+class _BaseController:
+    """Shared plumbing: period, batch size, mode estimate."""
+
+    period_s: float
+
+    def __init__(self, period_s: float) -> None:
+        _check_finite("period_s", period_s, positive=True)
+        self.period_s = float(period_s)
+        self.n_episodes = 0
+        self.mode = np.zeros(0, dtype=np.int8)
+        self.grip_force_n = np.zeros(0)
+
+    def _require_reset(self, sample: SensorSample) -> None:
+        if self.n_episodes == 0:
+            raise GripperError(f"{type(self).__name__}.step called before reset(n_episodes)")
+        n = sample.n_episodes
+        if np.ndim(sample.force_x_n) != 0 and n != self.n_episodes:
+            raise GripperError(
+                f"sample carries {n} episodes but the controller was reset for {self.n_episodes}"
+            )
+
+    def _reset_common(self, n_episodes: int) -> None:
+        if int(n_episodes) < 1:
+            raise GripperError(f"n_episodes must be >= 1, got {n_episodes!r}")
+        self.n_episodes = int(n_episodes)
+        self.mode = np.full(self.n_episodes, int(Mode.GRASP), dtype=np.int8)
+
+
+# --------------------------------------------------------------------------- fail-safe (FS)
+
+
+@dataclass(frozen=True)
+class FailSafeParams:
+    """Parameters of the fail-safe law (eq 3.19).
+
+    Attributes:
+        alpha: gain on the downward wrist force F_sy (dimensionless).
+        beta: gain on the downward object acceleration a_y, N/(m/s²) = kg.
+        gamma: gain on the pull force F_sx (dimensionless).
+        f_margin_n: F_margin, N; tolerated downward acceleration is F_margin/β (eq 3.11).
+        k_i: integrator weight per control step (0 < k_i ≤ 1; 1 is eq 3.8 without integrator).
+        max_grip_force_n: clamp F_max, N (≤ 140 N).
+        initial_grip_force_n: F_G[0], N; None starts at the law's rest value for the first
+            sample (α F_sy − γ F_sx − F_margin with a_y ignored), i.e. at its fixed point.
+    """
+
+    alpha: float = 10.0
+    beta: float = 3.0
+    gamma: float = 3.0
+    f_margin_n: float = 15.0
+    k_i: float = 0.13
+    max_grip_force_n: float = ABSOLUTE_MAX_GRIP_FORCE_N
+    initial_grip_force_n: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("alpha", "beta", "gamma", "f_margin_n"):
+            _check_finite(name, getattr(self, name), nonneg=True)
+        _check_finite("k_i", self.k_i, positive=True)
+        if self.k_i > 1.0:
+            raise GripperError(f"k_i must be in (0, 1], got {self.k_i}")
+        _check_max_force(self.max_grip_force_n)
+        if self.initial_grip_force_n is not None:
+            _check_finite("initial_grip_force_n", self.initial_grip_force_n, nonneg=True)
+
+    def law_target_n(self, force_x_n, force_y_n, accel_y_m_s2):
+        """The proportional part α F_sy + β a_y − γ F_sx − F_margin (eq 3.7/3.8), N."""
+        return (
+            self.alpha * np.asarray(force_y_n, dtype=float)
+            + self.beta * np.asarray(accel_y_m_s2, dtype=float)
+            - self.gamma * np.asarray(force_x_n, dtype=float)
+            - self.f_margin_n
+        )
+
+
+#: §3.6.1.1: FS1 (α=10, β=3, γ=3, F_margin=15 N, k_i=0.13); FS2 is FS1 with α=15; FS3 is
+#: FS1 with γ=1. §3.5: α=10, β=3, F_margin=12 N, k_i=0.13, with γ=1 as printed in Table IV
+#: ("FS-sim-g1") or γ=5 as stated in the text of §3.5 ("FS-sim-g5").
+FS_PRESETS: dict[str, FailSafeParams] = {
+    "FS1": FailSafeParams(alpha=10.0, beta=3.0, gamma=3.0, f_margin_n=15.0, k_i=0.13),
+    "FS2": FailSafeParams(alpha=15.0, beta=3.0, gamma=3.0, f_margin_n=15.0, k_i=0.13),
+    "FS3": FailSafeParams(alpha=10.0, beta=3.0, gamma=1.0, f_margin_n=15.0, k_i=0.13),
+    "FS-sim-g1": FailSafeParams(alpha=10.0, beta=3.0, gamma=1.0, f_margin_n=12.0, k_i=0.13),
+    "FS-sim-g5": FailSafeParams(alpha=10.0, beta=3.0, gamma=5.0, f_margin_n=12.0, k_i=0.13),
+}
+
+
+def fail_safe_law(params: FailSafeParams, force_x_n, force_y_n, accel_y_m_s2, grip_force_n):
+    """One step of eq 3.19, clamped to [0, F_max]: returns F_G[n+1] in N.
+
+    Arguments are F_sx[n], F_sy[n] (N), a_y[n] (m/s², down +) and F_G[n] (N), scalars or
+    arrays that broadcast together.
+    """
+    target = params.law_target_n(force_x_n, force_y_n, accel_y_m_s2)
+    raw = params.k_i * target + (1.0 - params.k_i) * np.asarray(grip_force_n, dtype=float)
+    return np.clip(raw, 0.0, params.max_grip_force_n)
+
+
+class FailSafeController(_BaseController):
+    """The thesis's fail-safe controller (eq 3.19), vectorised over episodes."""
+
+    def __init__(
+        self,
+        params: FailSafeParams,
+        period_s: float = DEFAULT_PERIOD_S,
+        slip_accel_threshold_m_s2: float = DEFAULT_SLIP_ACCEL_THRESHOLD_M_S2,
+        slip_speed_threshold_m_s: float = DEFAULT_SLIP_SPEED_THRESHOLD_M_S,
+    ) -> None:
+        super().__init__(period_s)
+        self.params = params
+        self.slip_accel_threshold_m_s2 = slip_accel_threshold_m_s2
+        self.slip_speed_threshold_m_s = slip_speed_threshold_m_s
+        self._started = False
+
+    def reset(self, n_episodes: int = 1) -> None:
+        self._reset_common(n_episodes)
+        initial = self.params.initial_grip_force_n
+        self.grip_force_n = np.full(self.n_episodes, 0.0 if initial is None else initial)
+        self._started = initial is not None
+
+    def step(self, sample: SensorSample) -> np.ndarray:
+        self._require_reset(sample)
+        n = self.n_episodes
+        fx = _as_episodes(sample.force_x_n, n, "force_x_n")
+        fy = _as_episodes(sample.force_y_n, n, "force_y_n")
+        ay = _as_episodes(sample.accel_y_m_s2, n, "accel_y_m_s2")
+        if not self._started:
+            rest = self.params.law_target_n(fx, fy, 0.0)
+            self.grip_force_n = np.clip(rest, 0.0, self.params.max_grip_force_n)
+            self._started = True
+        self.grip_force_n = fail_safe_law(self.params, fx, fy, ay, self.grip_force_n)
+        self.mode = _estimate_mode(
+            self.grip_force_n, sample, n, self.slip_accel_threshold_m_s2, self.slip_speed_threshold_m_s
+        )
+        return self.grip_force_n.copy()
+
+
+# --------------------------------------------------------------------------- human-inspired (HI)
+
+
+@dataclass(frozen=True)
+class HumanInspiredParams:
+    """Chan et al.'s human-inspired law (eq 3.22, thesis Fig. 25), as set in §3.6.1.1.
+
+    F_G = m F_L + F_ZLG for load F_L ≥ 0, with the slope m = (F_Go − F_ZLG) / F_Lo so that
+    the initial load F_Lo gets the initial grip F_Go. Between ε and zero load the grip stays
+    at the safety margin F_ZLG; once the load reaches ε (the receiver lifts the object by
+    |ε| beyond its weight) the gripper opens, F_G = 0, and stays open (`latch_release`).
+
+    Attributes:
+        initial_grip_force_n: F_Go, N (thesis: 15 N).
+        release_load_n: ε, N, the load at which the object is released (thesis: −2 N).
+        zero_load_grip_force_n: F_ZLG, N (thesis: 5 N).
+        initial_load_n: F_Lo, N; None takes the vertical load F_sy of the first sample.
+        latch_release: once released, stay released for the rest of the episode.
+        max_grip_force_n: clamp, N (≤ 140 N).
+    """
+
+    initial_grip_force_n: float = 15.0
+    release_load_n: float = -2.0
+    zero_load_grip_force_n: float = 5.0
+    initial_load_n: float | None = None
+    latch_release: bool = True
+    max_grip_force_n: float = ABSOLUTE_MAX_GRIP_FORCE_N
+
+    def __post_init__(self) -> None:
+        _check_finite("initial_grip_force_n", self.initial_grip_force_n, positive=True)
+        _check_finite("zero_load_grip_force_n", self.zero_load_grip_force_n, nonneg=True)
+        _check_finite("release_load_n", self.release_load_n)
+        if self.release_load_n > 0.0:
+            raise GripperError(
+                f"release_load_n (ε) must be <= 0 N (an upward pull beyond the weight), got {self.release_load_n}"
+            )
+        if self.zero_load_grip_force_n >= self.initial_grip_force_n:
+            raise GripperError("zero_load_grip_force_n (F_ZLG) must be below initial_grip_force_n (F_Go)")
+        if self.initial_load_n is not None:
+            _check_finite("initial_load_n", self.initial_load_n, positive=True)
+        _check_max_force(self.max_grip_force_n)
+
+
+def human_inspired_grip_n(params: HumanInspiredParams, load_n, initial_load_n):
+    """Grip force (N) of eq 3.22 for vertical load(s) F_L (N) given F_Lo (N), without latching."""
+    load = np.asarray(load_n, dtype=float)
+    f_lo = np.asarray(initial_load_n, dtype=float)
+    if np.any(f_lo <= 0.0):
+        raise GripperError("initial load F_Lo must be > 0 N: the gripper must hold the object's weight")
+    slope = (params.initial_grip_force_n - params.zero_load_grip_force_n) / f_lo
+    grip = np.where(
+        load >= 0.0,
+        slope * load + params.zero_load_grip_force_n,
+        np.where(load > params.release_load_n, params.zero_load_grip_force_n, 0.0),
+    )
+    return np.clip(grip, 0.0, params.max_grip_force_n)
+
+
+class HumanInspiredController(_BaseController):
+    """Chan et al.'s human-inspired controller (HI), vectorised over episodes."""
+
+    def __init__(
+        self,
+        params: HumanInspiredParams | None = None,
+        period_s: float = DEFAULT_PERIOD_S,
+        slip_accel_threshold_m_s2: float = DEFAULT_SLIP_ACCEL_THRESHOLD_M_S2,
+        slip_speed_threshold_m_s: float = DEFAULT_SLIP_SPEED_THRESHOLD_M_S,
+    ) -> None:
+        super().__init__(period_s)
+        self.params = params or HumanInspiredParams()
+        self.slip_accel_threshold_m_s2 = slip_accel_threshold_m_s2
+        self.slip_speed_threshold_m_s = slip_speed_threshold_m_s
+
+    def reset(self, n_episodes: int = 1) -> None:
+        self._reset_common(n_episodes)
+        self.grip_force_n = np.full(self.n_episodes, self.params.initial_grip_force_n)
+        self.released = np.zeros(self.n_episodes, dtype=bool)
+        lo = self.params.initial_load_n
+        self.initial_load_n = None if lo is None else np.full(self.n_episodes, lo)
+
+    def step(self, sample: SensorSample) -> np.ndarray:
+        self._require_reset(sample)
+        n = self.n_episodes
+        load = _as_episodes(sample.force_y_n, n, "force_y_n")
+        if self.initial_load_n is None:
+            if np.any(load <= 0.0):
+                raise GripperError(
+                    "HI controller: the first sample shows no downward load (F_sy <= 0); "
+                    "set initial_load_n (F_Lo) or start while the gripper holds the object"
+                )
+            self.initial_load_n = load.copy()
+        grip = human_inspired_grip_n(self.params, load, self.initial_load_n)
+        if self.params.latch_release:
+            self.released |= grip <= 0.0
+            grip = np.where(self.released, 0.0, grip)
+        self.grip_force_n = grip
+        self.mode = _estimate_mode(
+            grip, sample, n, self.slip_accel_threshold_m_s2, self.slip_speed_threshold_m_s
+        )
+        return grip.copy()
+
+
+# --------------------------------------------------------------------------- baselines (§3.1)
+
+
+class _LatchedReleaseBaseline(_BaseController):
+    """Hold a constant grip until a release condition fires, then open for good."""
+
+    def __init__(self, hold_force_n: float, period_s: float) -> None:
+        super().__init__(period_s)
+        _check_finite("hold_force_n", hold_force_n, positive=True)
+        _check_max_force(hold_force_n)
+        self.hold_force_n = float(hold_force_n)
+
+    def reset(self, n_episodes: int = 1) -> None:
+        self._reset_common(n_episodes)
+        self.released = np.zeros(self.n_episodes, dtype=bool)
+        self.grip_force_n = np.full(self.n_episodes, self.hold_force_n)
+        self._rest_force = None
+
+    def _release_condition(self, sample: SensorSample) -> np.ndarray:
+        raise GripperError(f"{type(self).__name__} defines no release condition")
+
+    def _rest(self, sample: SensorSample) -> np.ndarray:
+        """Wrist force (x, y) of the first sample, shape (2, n): the reading while held at rest."""
+        if self._rest_force is None:
+            n = self.n_episodes
+            self._rest_force = np.stack(
+                [_as_episodes(sample.force_x_n, n, "force_x_n"), _as_episodes(sample.force_y_n, n, "force_y_n")]
+            )
+        return self._rest_force
+
+    def _force_change_n(self, sample: SensorSample) -> np.ndarray:
+        """Change of the wrist force since the first sample, shape (2, n), N."""
+        n = self.n_episodes
+        now = np.stack(
+            [_as_episodes(sample.force_x_n, n, "force_x_n"), _as_episodes(sample.force_y_n, n, "force_y_n")]
+        )
+        return now - self._rest(sample)
+
+    def step(self, sample: SensorSample) -> np.ndarray:
+        self._require_reset(sample)
+        self.released |= self._release_condition(sample)
+        self.grip_force_n = np.where(self.released, 0.0, self.hold_force_n)
+        self.mode = np.where(self.released, int(Mode.RELEASE), int(Mode.GRASP)).astype(np.int8)
+        return self.grip_force_n.copy()
+
+
+class TimedRelease(_LatchedReleaseBaseline):
+    """Release a predefined time after the start of the episode (thesis §3.1, refs [9, 29]).
+
+    Attributes:
+        release_time_s: episode time `sample.time_s` at which the gripper opens, s.
+    """
+
+    def __init__(self, release_time_s: float = 2.0, hold_force_n: float = 15.0, period_s: float = DEFAULT_PERIOD_S):
+        super().__init__(hold_force_n, period_s)
+        _check_finite("release_time_s", release_time_s, nonneg=True)
+        self.release_time_s = float(release_time_s)
+
+    def _release_condition(self, sample: SensorSample) -> np.ndarray:
+        return np.full(self.n_episodes, float(sample.time_s) >= self.release_time_s)
+
+
+class ForceThresholdRelease(_LatchedReleaseBaseline):
+    """Release once the wrist force has changed by more than a threshold (Deyle et al., §3.1).
+
+    The change is the Euclidean norm of (ΔF_sx, ΔF_sy) from the first sample (the object
+    held at rest), so a pull in any direction, or a receiver taking the weight, counts.
+
+    Attributes:
+        threshold_n: force change that triggers the release, N.
+    """
+
+    def __init__(self, threshold_n: float = 3.0, hold_force_n: float = 15.0, period_s: float = DEFAULT_PERIOD_S):
+        super().__init__(hold_force_n, period_s)
+        _check_finite("threshold_n", threshold_n, positive=True)
+        self.threshold_n = float(threshold_n)
+
+    def _release_condition(self, sample: SensorSample) -> np.ndarray:
+        change = self._force_change_n(sample)
+        return np.hypot(change[0], change[1]) >= self.threshold_n
+
+
+class DisplacementRelease(_LatchedReleaseBaseline):
+    """Release when an impedance-controlled hand is pushed away by more than a distance
+    (Bohren et al., §3.1).
+
+    The arm is modelled as the impedance it would be given: a virtual mass–spring–damper
+    per axis, M ẍ + D ẋ + K x = ΔF, driven by the change of the wrist force since the
+    first sample and integrated (semi-implicit Euler) at the control period. The gripper
+    opens once |x| ≥ `displacement_threshold_m`. Its static release force is K times the
+    threshold; short impulses (bumps) move the hand less than a slow pull of the same
+    peak, which is what distinguishes it from `ForceThresholdRelease`.
+
+    Attributes:
+        displacement_threshold_m: hand displacement that triggers release, m.
+        stiffness_n_m: virtual stiffness K, N/m.
+        mass_kg: virtual mass M, kg.
+        damping_ratio: ζ, D = 2 ζ √(K M).
+    """
+
+    def __init__(
+        self,
+        displacement_threshold_m: float = 0.01,
+        stiffness_n_m: float = 300.0,
+        mass_kg: float = 2.0,
+        damping_ratio: float = 1.0,
+        hold_force_n: float = 15.0,
+        period_s: float = DEFAULT_PERIOD_S,
+    ):
+        super().__init__(hold_force_n, period_s)
+        _check_finite("displacement_threshold_m", displacement_threshold_m, positive=True)
+        _check_finite("stiffness_n_m", stiffness_n_m, positive=True)
+        _check_finite("mass_kg", mass_kg, positive=True)
+        _check_finite("damping_ratio", damping_ratio, nonneg=True)
+        self.displacement_threshold_m = float(displacement_threshold_m)
+        self.stiffness_n_m = float(stiffness_n_m)
+        self.mass_kg = float(mass_kg)
+        self.damping_n_s_m = 2.0 * damping_ratio * math.sqrt(stiffness_n_m * mass_kg)
+
+    def reset(self, n_episodes: int = 1) -> None:
+        super().reset(n_episodes)
+        self.position_m = np.zeros((2, self.n_episodes))
+        self.velocity_m_s = np.zeros((2, self.n_episodes))
+
+    def _release_condition(self, sample: SensorSample) -> np.ndarray:
+        force = self._force_change_n(sample)
+        accel = (force - self.damping_n_s_m * self.velocity_m_s - self.stiffness_n_m * self.position_m) / self.mass_kg
+        self.velocity_m_s = self.velocity_m_s + self.period_s * accel
+        self.position_m = self.position_m + self.period_s * self.velocity_m_s
+        return np.hypot(self.position_m[0], self.position_m[1]) >= self.displacement_threshold_m
+
+
+# --------------------------------------------------------------------------- registry
+
+
+@dataclass(frozen=True)
+class _Entry:
+    factory: Callable[..., GripController]
+    summary: str
+    defaults: dict = field(default_factory=dict)
+
+
+def _fs_factory(preset: str) -> Callable[..., GripController]:
+    def build(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
+        try:
+            params = replace(FS_PRESETS[preset], **overrides)
+        except TypeError as exc:
+            raise GripperError(f"{preset}: unknown parameter ({exc}); see FailSafeParams") from exc
+        return FailSafeController(params, period_s=period_s)
+
+    return build
+
+
+def _hi_factory(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
+    try:
+        params = HumanInspiredParams(**overrides)
+    except TypeError as exc:
+        raise GripperError(f"HI: unknown parameter ({exc}); see HumanInspiredParams") from exc
+    return HumanInspiredController(params, period_s=period_s)
+
+
+def _kw_factory(cls) -> Callable[..., GripController]:
+    def build(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
+        try:
+            return cls(period_s=period_s, **overrides)
+        except TypeError as exc:
+            raise GripperError(f"{cls.__name__}: unknown parameter ({exc})") from exc
+
+    return build
+
+
+_REGISTRY: dict[str, _Entry] = {
+    "FS1": _Entry(_fs_factory("FS1"), "fail-safe eq 3.19, α=10 β=3 γ=3 F_margin=15 N k_i=0.13 (§3.6.1.1)"),
+    "FS2": _Entry(_fs_factory("FS2"), "FS1 with α=15 (§3.6.1.1)"),
+    "FS3": _Entry(_fs_factory("FS3"), "FS1 with γ=1 (§3.6.1.1)"),
+    "FS-sim-g1": _Entry(_fs_factory("FS-sim-g1"), "§3.5 simulation set as printed in Table IV (γ=1, F_margin=12 N)"),
+    "FS-sim-g5": _Entry(_fs_factory("FS-sim-g5"), "§3.5 simulation set as stated in the text (γ=5, F_margin=12 N)"),
+    "HI": _Entry(_hi_factory, "human-inspired, Chan et al. eq 3.22: F_Go=15 N, ε=−2 N, F_ZLG=5 N"),
+    "timed": _Entry(_kw_factory(TimedRelease), "baseline: release at a fixed time (2 s)"),
+    "force-threshold": _Entry(_kw_factory(ForceThresholdRelease), "baseline: release when |ΔF| ≥ 3 N (Deyle et al.)"),
+    "displacement": _Entry(
+        _kw_factory(DisplacementRelease), "baseline: impedance hand displaced ≥ 1 cm (Bohren et al.)"
+    ),
+}
+
+CONTROLLER_NAMES: tuple[str, ...] = tuple(_REGISTRY)
+
+
+def controller_summaries() -> dict[str, str]:
+    """Name → one-line description of every registered controller."""
+    return {name: entry.summary for name, entry in _REGISTRY.items()}
+
+
+def make_controller(name: str, period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
+    """Build a registered controller by name, with optional parameter overrides.
+
+    Raises GripperError for an unknown name or parameter.
+    """
+    try:
+        entry = _REGISTRY[name]
+    except KeyError:
+        raise GripperError(
+            f"unknown controller {name!r}; choose one of: {', '.join(CONTROLLER_NAMES)}"
+        ) from None
+    return entry.factory(period_s=period_s, **overrides)

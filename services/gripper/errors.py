@@ -1,0 +1,11 @@
+"""Exception root of the gripper package."""
+
+from __future__ import annotations
+
+
+class GripperError(Exception):
+    """Any error of the gripper package: bad controller parameters, unknown controller name,
+    inputs of inconsistent shape, or an analysis that has no answer for its inputs.
+
+    The message says what to check.
+    """
