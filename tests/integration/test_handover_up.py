@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import signal
 import subprocess
 import sys
@@ -73,7 +74,7 @@ def test_demo_moves_the_arm_and_the_recording_holds_the_motion(tmp_path):
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 0, out
-    assert "all 2 services alive" in out and "[bridge]" in out and "[recorder]" in out
+    assert re.search(r"all \d+ services alive", out) and "[bridge]" in out and "[recorder]" in out
     assert "summary:" in out and "final error" in out
     recording = tmp_path / "handover-t.rrd"
     assert recording.is_file()

@@ -1,0 +1,53 @@
+"""Bus wiring of the planner: HumanState + ObjectEstimate in, TransferTarget out.
+
+All decisions are in `core.PlannerService`; this module only moves messages.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import time
+
+from bus_schema import topics as T
+from services.planner.config import load_config
+from services.planner.core import PlannerService
+from services.runtime import RateLimitedLog, ServiceNode, load_profile
+
+log = logging.getLogger("planner")
+
+#: Longest wait between two looks at the inputs (also bounds the republish jitter), s.
+WAIT_S = 0.05
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the planner service until SIGINT/SIGTERM."""
+    profile = load_profile(args)
+    cfg = load_config(profile.service_config("planner"))
+    service = PlannerService(cfg)
+    notes = RateLimitedLog(log, 2.0)
+    with ServiceNode("planner", profile) as node:
+        pub = node.publisher(T.TRANSFER)
+        human_sub = node.subscribe(T.HUMAN, queue_size=4)
+        object_sub = node.subscribe(T.OBJECT, queue_size=4)
+        log.info("planner ready: waiting for %s", T.HUMAN.key(profile.prefix))
+        while not node.should_stop:
+            node.wait(WAIT_S)
+            human = human_sub.latest()
+            obj = object_sub.latest()
+            fields, note = service.step(
+                human.msg if human else None,
+                human.rx_monotonic if human else None,
+                bool(obj and obj.msg.found),
+                obj.msg.mass_kg if obj else 0.0,
+                time.monotonic(),
+            )
+            if fields is not None:
+                pub.put(**fields)
+            if note is not None:
+                if note.startswith("planned"):
+                    log.info(note)
+                else:
+                    notes.warning("plan", note)
+        log.info("planner stopping after %d plans", service.plans_made)
+    return 0
