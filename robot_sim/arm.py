@@ -1,13 +1,15 @@
 """Simulated joint position servo of Baxter's right arm (no bus, no clock: pure stepping).
 
-Model per joint, with target q*, position q, time constant τ, velocity limit v_max and
-position limits [q_lo, q_hi]:
+Model per joint, with target q*, velocity feed-forward v_ff (the target's own rate, 0 when
+not given), position q, time constant τ, velocity limit v_max and limits [q_lo, q_hi]:
 
-    q̇ = clip((q* − q) / τ, −v_max, v_max)        (first-order lag, velocity-saturated)
+    q̇ = clip(v_ff + (q* − q) / τ, −v_max, v_max)   (first-order lag with feed-forward)
     q ← clip(q + q̇ Δt, q_lo, q_hi)
 
-The integration is exact for the unsaturated lag (q* − q decays by exp(−Δt/τ) per step), so
-the servo is stable for any Δt. Units: rad, rad/s, s.
+With feed-forward a target streamed at 100 Hz is tracked with a lag of about v Δt/2 instead
+of v τ, and a trajectory that comes to rest brings the arm to rest with it. The lag term is
+integrated exactly (q* − q decays by exp(−Δt/τ) per step), so the servo is stable for any
+Δt; the target is never extrapolated past the last command. Units: rad, rad/s, s.
 """
 
 from __future__ import annotations
@@ -52,16 +54,23 @@ class SimulatedArm:
         start = np.clip(start, self.limits.lower_rad, self.limits.upper_rad)
         self.state = ArmState(position_rad=start, velocity_rad_s=np.zeros_like(start))
         self.target_rad = start.copy()
+        self.feedforward_rad_s = np.zeros_like(start)
 
-    def set_target(self, target_rad: np.ndarray) -> None:
-        """Set the servo target (rad), clipped to the joint limits."""
+    def set_target(self, target_rad: np.ndarray, feedforward_rad_s: np.ndarray | None = None) -> None:
+        """Set the servo target (rad, clipped to the joint limits) and its rate (rad/s)."""
         self.target_rad = np.clip(
             np.asarray(target_rad, dtype=float), self.limits.lower_rad, self.limits.upper_rad
         )
+        if feedforward_rad_s is None:
+            self.feedforward_rad_s = np.zeros_like(self.target_rad)
+        else:
+            self.feedforward_rad_s = np.clip(np.asarray(feedforward_rad_s, dtype=float),
+                                             -self.limits.velocity_rad_s, self.limits.velocity_rad_s)
 
     def hold(self) -> None:
-        """Hold the current position: the target becomes where the arm is now."""
+        """Hold the current position: the target becomes where the arm is now, at rest."""
         self.target_rad = self.state.position_rad.copy()
+        self.feedforward_rad_s = np.zeros_like(self.target_rad)
 
     def step(self, dt_s: float) -> ArmState:
         """Advance the servo by `dt_s` seconds and return the new state."""
@@ -69,9 +78,12 @@ class SimulatedArm:
             return self.state
         q = self.state.position_rad
         error = self.target_rad - q
-        # Exact first-order decay over dt, expressed as the mean velocity over the step.
-        lag_velocity = error * (1.0 - np.exp(-dt_s / self.time_constant_s)) / dt_s
-        velocity = np.clip(lag_velocity, -self.limits.velocity_rad_s, self.limits.velocity_rad_s)
+        # The lag term is the exact mean velocity of a first-order decay over dt; the
+        # feed-forward adds the commanded rate. The target itself is never extrapolated past
+        # the last command (a stale command must not carry the arm on).
+        decay = 1.0 - np.exp(-dt_s / self.time_constant_s)
+        velocity = self.feedforward_rad_s + error * decay / dt_s
+        velocity = np.clip(velocity, -self.limits.velocity_rad_s, self.limits.velocity_rad_s)
         new_q = np.clip(q + velocity * dt_s, self.limits.lower_rad, self.limits.upper_rad)
         self.state = ArmState(position_rad=new_q, velocity_rad_s=(new_q - q) / dt_s)
         return self.state

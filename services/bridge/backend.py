@@ -41,8 +41,8 @@ class Backend(Protocol):
     def step(self, dt_s: float) -> None:
         """Advance the robot by `dt_s` (simulation) or poll it (hardware)."""
 
-    def command(self, target_rad: np.ndarray) -> None:
-        """Servo toward `target_rad` (validated and inside limits)."""
+    def command(self, target_rad: np.ndarray, feedforward_rad_s: np.ndarray | None = None) -> None:
+        """Servo toward `target_rad` (validated and inside limits) moving at `feedforward_rad_s`."""
 
     def hold(self) -> None:
         """Hold the current position."""
@@ -72,9 +72,9 @@ class SimBackend:
     def step(self, dt_s: float) -> None:
         self.arm.step(dt_s)
 
-    def command(self, target_rad: np.ndarray) -> None:
+    def command(self, target_rad: np.ndarray, feedforward_rad_s: np.ndarray | None = None) -> None:
         self._holding_target = None
-        self.arm.set_target(target_rad)
+        self.arm.set_target(target_rad, feedforward_rad_s)
 
     def hold(self) -> None:
         # Latch the position at the moment the hold starts, so the arm stays there.

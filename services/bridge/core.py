@@ -28,6 +28,7 @@ class Decision:
 
     Attributes:
         target_rad: the servo target (7,), or None to hold the current position.
+        feedforward_rad_s: the commanded joint velocities (7,) (zeros when not given).
         holding: the arm holds (time-out, rejected command, or no command yet).
         reason: why it holds ("" when following commands).
     """
@@ -35,6 +36,7 @@ class Decision:
     target_rad: np.ndarray | None
     holding: bool
     reason: str
+    feedforward_rad_s: np.ndarray | None = None
 
 
 class CommandRejected(ValueError):
@@ -65,19 +67,26 @@ class CommandGate:
         self._clip_lower = limits.lower_rad
         self._clip_upper = limits.upper_rad
         self.command_timeout_s = command_timeout_s
+        self._velocity_limit = limits.velocity_rad_s
         self._target_rad: np.ndarray | None = None
+        self._feedforward_rad_s = np.zeros(len(self.joint_names))
         self._last_valid_s: float | None = None
         self._rejected_reason = ""
         self.accepted = 0
         self.rejected = 0
 
-    def validate(self, names: Sequence[str], position_rad: Sequence[float]) -> list[tuple[int, float]]:
+    def validate(self, names: Sequence[str], position_rad: Sequence[float],
+                 velocity_rad_s: Sequence[float] = ()) -> list[tuple[int, float]]:
         """Check a command; return (joint index, position) pairs.
 
         Raises:
             CommandRejected: unknown or repeated joint, length mismatch, empty command,
-                non-finite or out-of-limit position.
+                non-finite or out-of-limit position, velocity above the joint's limit.
         """
+        if velocity_rad_s and len(velocity_rad_s) != len(names):
+            raise CommandRejected(
+                f"joint command has {len(names)} names but {len(velocity_rad_s)} velocities"
+            )
         if len(names) != len(position_rad):
             raise CommandRejected(
                 f"joint command has {len(names)} names but {len(position_rad)} positions"
@@ -102,13 +111,21 @@ class CommandGate:
                     f"[{self._clip_lower[index]:.4f}, {self._clip_upper[index]:.4f}] rad"
                 )
             pairs.append((index, value))
+        for (index, _), v in zip(pairs, velocity_rad_s, strict=False):
+            if not abs(float(v)) <= self._velocity_limit[index] * 1.05:
+                raise CommandRejected(
+                    f"joint command velocity {self.joint_names[index]}={float(v):.3f} rad/s exceeds "
+                    f"the joint's limit {self._velocity_limit[index]:.2f} rad/s"
+                )
         return pairs
 
     def offer(self, names: Sequence[str], position_rad: Sequence[float], now_s: float,
-              current_rad: np.ndarray) -> str | None:
+              current_rad: np.ndarray, velocity_rad_s: Sequence[float] = ()) -> str | None:
         """Take a command received at `now_s`.
 
         Args:
+            velocity_rad_s: optional feed-forward velocities (same order as `names`); joints
+                a command does not name get zero feed-forward.
             current_rad: the arm's current positions (7,), the base for partial commands
                 when no target exists yet.
 
@@ -116,7 +133,7 @@ class CommandGate:
             None when accepted, else the one-line reason it was rejected (the arm then holds).
         """
         try:
-            pairs = self.validate(names, position_rad)
+            pairs = self.validate(names, position_rad, velocity_rad_s)
         except CommandRejected as exc:
             self.rejected += 1
             self._target_rad = None
@@ -127,6 +144,10 @@ class CommandGate:
         target = base.copy()
         for index, value in pairs:
             target[index] = value
+        feedforward = np.zeros(len(self.joint_names))
+        for (index, _), v in zip(pairs, velocity_rad_s, strict=False):
+            feedforward[index] = float(v)
+        self._feedforward_rad_s = feedforward
         self._target_rad = np.clip(target, self._clip_lower, self._clip_upper)
         self._last_valid_s = now_s
         self._rejected_reason = ""
@@ -145,4 +166,4 @@ class CommandGate:
                 f"no joint command for {age_s * 1e3:.0f} ms (time-out {self.command_timeout_s * 1e3:.0f} ms)"
             )
             return Decision(None, True, self._rejected_reason)
-        return Decision(self._target_rad, False, "")
+        return Decision(self._target_rad, False, "", self._feedforward_rad_s)

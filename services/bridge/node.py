@@ -53,7 +53,8 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                 dt_s, last_s = now_s - last_s, now_s
                 current = backend.read().position_rad
                 for rx in commands.drain():
-                    reason = gate.offer(rx.msg.names, rx.msg.position_rad, rx.rx_monotonic, current)
+                    reason = gate.offer(rx.msg.names, rx.msg.position_rad, rx.rx_monotonic, current,
+                                        rx.msg.velocity_rad_s)
                     if reason is not None:
                         reject_log.warning("rejected", f"joint command rejected, holding: {reason}",
                                            source=rx.msg.source, seq=rx.msg.seq)
@@ -63,7 +64,7 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                     if not was_holding:
                         log.info("arm holding", extra=kv(reason=decision.reason))
                 else:
-                    backend.command(decision.target_rad)
+                    backend.command(decision.target_rad, decision.feedforward_rad_s)
                 was_holding = decision.holding
                 backend.step(dt_s)
                 reading = backend.read()

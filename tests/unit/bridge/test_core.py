@@ -113,3 +113,46 @@ def test_fk_matches_an_independent_chain_length_bound():
         assert np.allclose(rot @ rot.T, np.eye(3), atol=1e-9)
         # Baxter's arm is about 1.2 m from shoulder to gripper tip at full stretch.
         assert 0.1 < np.linalg.norm(tool - shoulder) < 1.35
+
+
+def _track_ramp(feedforward: bool, speed=0.5, dt=0.01, steps=60):
+    arm = SimulatedArm(time_constant_s=0.05, initial_position_rad=HOME)
+    v = np.zeros(7)
+    v[0] = speed
+    for k in range(1, steps + 1):
+        arm.set_target(HOME + v * k * dt, v if feedforward else None)
+        arm.step(dt)
+    return (HOME[0] + speed * steps * dt) - arm.state.position_rad[0]
+
+
+def test_feedforward_removes_the_servo_lag():
+    lag_without = _track_ramp(False)
+    lag_with = _track_ramp(True)
+    assert lag_without == pytest.approx(0.5 * 0.05, rel=0.15)  # trails by v·τ
+    assert abs(lag_with) < 0.5 * 0.01  # within v·Δt with the commanded rate
+
+
+def test_rest_command_with_zero_feedforward_stops_the_arm():
+    arm = SimulatedArm(time_constant_s=0.05, initial_position_rad=HOME)
+    v = np.zeros(7)
+    v[0] = 1.0
+    for k in range(1, 30):
+        arm.set_target(HOME + v * k * 0.01, v)
+        arm.step(0.01)
+    final = arm.state.position_rad.copy()
+    arm.set_target(final, np.zeros(7))  # the trajectory has come to rest where the arm is
+    arm.step(0.01)
+    assert np.max(np.abs(arm.state.velocity_rad_s)) < 1e-9
+
+
+def test_velocity_above_limit_rejected(gate):
+    reason = gate.offer(["right_s0"], [0.0], 0.0, HOME, velocity_rad_s=[2.0])
+    assert reason is not None and "exceeds the joint's limit 1.50 rad/s" in reason
+    reason = gate.offer(["right_s0", "right_s1"], [0.0, -0.5], 0.0, HOME, velocity_rad_s=[0.1])
+    assert reason is not None and "2 names but 1 velocities" in reason
+
+
+def test_feedforward_passed_through_and_zero_for_unnamed_joints(gate):
+    assert gate.offer(["right_s0", "right_w2"], [0.1, 0.2], 0.0, HOME, velocity_rad_s=[0.3, -0.4]) is None
+    d = gate.decide(0.01)
+    assert d.feedforward_rad_s.tolist() == [0.3, 0, 0, 0, 0, 0, -0.4]

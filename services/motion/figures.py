@@ -1,0 +1,118 @@
+"""Figures of the motion service (matplotlib, Agg backend).
+
+`python -m services.motion.figures [OUT_DIR]` writes the README figures
+(`docs/img/motion_*.png` by default) from real planned motions.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from robot_sim import baxter  # noqa: E402
+
+
+def plot_record(record, path: str | Path, title: str = "") -> None:
+    """Joint positions and tool speed of a `PreviewRecord` to a PNG."""
+    fig, (ax_q, ax_v) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
+    for j, name in enumerate(baxter.RIGHT_ARM_JOINTS):
+        ax_q.plot(record.time_s, record.q_rad[:, j], label=name)
+    ax_q.set_ylabel("joint position (rad)")
+    ax_q.legend(ncol=4, fontsize=8)
+    ax_q.grid(alpha=0.3)
+    ax_v.plot(record.time_s, record.tool_speed_m_s, color="k")
+    ax_v.set_ylabel("tool speed (m/s)")
+    ax_v.set_xlabel("time (s)")
+    ax_v.grid(alpha=0.3)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def make_docs_figures(out_dir: Path) -> list[Path]:
+    """Transfer with and without the receiver-zone cap, and a stop mid-reach."""
+    from bus_schema.messages import MotionGoal, MotionStop
+    from robot_sim import scene
+    from services.motion.config import MotionConfig
+    from services.motion.core import MotionController
+    from services.motion.ik import ArmIk
+    from services.motion.preview import preview
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    config = MotionConfig()
+    ik = ArmIk(config)
+    home = np.array(baxter.RIGHT_ARM_HOME_RAD)
+
+    def goal(**kw):
+        return MotionGoal(seq=0, stamp_ns=0, source="figures", **kw)
+
+    pick = preview(MotionController(config, ik),
+                   goal(goal_id="pick", kind="pick", position_base_m=tuple(scene.OBJECT_PICK_BASE_M)), home)
+    q_pick = pick.q_rad[-1]
+    target = tuple(scene.task_to_base(np.array([0.05, 0.35])))
+    hand = tuple(np.array(target) + np.array([0.12, 0.0, 0.0]))
+    free = preview(MotionController(config, ik), goal(goal_id="t", kind="transfer", position_base_m=target), q_pick)
+    capped = preview(MotionController(config, ik),
+                     goal(goal_id="t", kind="transfer", position_base_m=target, receiver_hand_position_m=hand),
+                     q_pick)
+    stopped = preview(MotionController(config, ik), goal(goal_id="t", kind="transfer", position_base_m=target),
+                      q_pick, stop_at_s=0.5, stop=MotionStop(seq=0, stamp_ns=0, source="figures", reason="release"))
+    written = []
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for rec, label in ((free, "no receiver nearby"), (capped, "receiver's hand 0.12 m beyond the target")):
+        ax.plot(rec.time_s, rec.tool_speed_m_s, label=f"{label} ({rec.planned_duration_s:.2f} s)")
+    ax.axhline(config.receiver_zone_speed_m_s, color="r", ls="--", lw=1, label="0.25 m/s cap")
+    ax.set_xlabel("time (s)")
+    ax.set_ylabel("commanded tool speed (m/s)")
+    ax.set_title("Transfer reach: minimum-jerk bell-shaped speed, capped near the hand")
+    ax.legend(fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    path = out_dir / "motion_transfer_speed.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    written.append(path)
+
+    fig, (ax_q, ax_v) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    for j, name in enumerate(baxter.RIGHT_ARM_JOINTS):
+        ax_v.plot(stopped.time_s, stopped.dq_rad_s[:, j], label=name)
+        ax_q.plot(stopped.time_s, stopped.q_rad[:, j])
+    for ax in (ax_q, ax_v):
+        ax.axvline(0.5, color="r", ls="--", lw=1)
+        ax.grid(alpha=0.3)
+    ax_q.set_ylabel("joint position (rad)")
+    ax_v.set_ylabel("joint velocity (rad/s)")
+    ax_v.set_xlabel("time (s); red: stop message")
+    ax_v.legend(ncol=4, fontsize=7)
+    ax_q.set_title("Ruckig stop mid-reach (commanded joints)")
+    fig.tight_layout()
+    path = out_dir / "motion_stop.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    written.append(path)
+
+    path = out_dir / "motion_pick_transfer_joints.png"
+    plot_record(free, path, title="Transfer from the pick pose: commanded joints and tool speed")
+    written.append(path)
+    return written
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    out = Path(argv[0]) if argv else Path("docs/img")
+    for path in make_docs_figures(out):
+        print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
