@@ -1,0 +1,63 @@
+"""The recorder as a real process: the file stays valid when the recorder is killed."""
+
+from __future__ import annotations
+
+import shutil
+import signal
+import subprocess
+import time
+
+import numpy as np
+import pytest
+
+from bus_schema import topics
+from services.recorder.readback import entity_row_counts, read_scalars
+from services.runtime.testing import ServiceProcess, wait_alive
+
+pytestmark = pytest.mark.integration
+
+
+def _publish_forces(node, n, period_s=0.005):
+    pub = node.publisher(topics.WRIST_WRENCH)
+    time.sleep(0.2)
+    for i in range(n):
+        pub.put(force_n=(float(i), 0.0, 0.0))
+        time.sleep(period_s)
+
+
+def _rerun_verify(path):
+    exe = shutil.which("rerun")
+    if exe is None:
+        pytest.skip("rerun CLI not on PATH")
+    return subprocess.run([exe, "rrd", "verify", str(path)], capture_output=True, text=True, timeout=120)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_recording_complete_after_sigterm(bus, make_node, tmp_path, sig):
+    profile, router = bus
+    out = tmp_path / "run.rrd"
+    with ServiceProcess("services.recorder", profile, ["--output", str(out)]) as rec:
+        wait_alive(router, profile, {"recorder"})
+        _publish_forces(make_node(), 200)
+        time.sleep(0.3)
+        rec.proc.send_signal(sig)
+        assert rec.proc.wait(10) == 0, rec.log_text()
+    values = read_scalars(out, "/bus/sensors/wrist_wrench/force_n/0")["/bus/sensors/wrist_wrench/force_n/0"][1]
+    assert values.tolist() == [float(i) for i in range(200)]  # every message, in order
+    assert any(e.startswith("/transforms") or "baxter" in e for e in entity_row_counts(out))
+    assert _rerun_verify(out).returncode == 0
+
+
+def test_recording_readable_after_sigkill(bus, make_node, tmp_path):
+    profile, router = bus
+    out = tmp_path / "killed.rrd"
+    with ServiceProcess("services.recorder", profile, ["--output", str(out), "--no-urdf"]) as rec:
+        wait_alive(router, profile, {"recorder"})
+        _publish_forces(make_node(), 150)
+        time.sleep(0.6)  # more than one 250 ms flush period
+        rec.proc.send_signal(signal.SIGKILL)
+        rec.proc.wait(10)
+    values = read_scalars(out, "/bus/sensors/wrist_wrench/force_n/0")["/bus/sensors/wrist_wrench/force_n/0"][1]
+    # Everything flushed before the kill is there and intact.
+    assert np.array_equal(values, np.arange(len(values), dtype=float))
+    assert len(values) == 150
