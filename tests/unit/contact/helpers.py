@@ -1,0 +1,30 @@
+"""Shared helpers for the contact simulator tests."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from robot_sim.contact.config import SensorParams, SimConfig
+
+
+class StepGrip:
+    """Grip law for tests: `before_n` until `switch_s`, then `after_n` (N)."""
+
+    def __init__(self, before_n: float, after_n: float, switch_s: float, period_s: float = 0.01):
+        self.before_n, self.after_n, self.switch_s, self.period_s = before_n, after_n, switch_s, period_s
+        self._n = 1
+
+    def reset(self, n_episodes: int = 1) -> None:
+        self._n = n_episodes
+
+    def step(self, sample) -> np.ndarray:
+        f = self.after_n if sample.time_s >= self.switch_s else self.before_n
+        return np.full(self._n, f)
+
+
+def quiet_config(**changes) -> SimConfig:
+    """A config with noiseless, unbiased sensors."""
+    base = SimConfig(sensors=SensorParams(ft_noise_std_n=0.0, ft_bias_std_n=0.0))
+    return replace(base, **changes)
