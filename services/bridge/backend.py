@@ -53,6 +53,9 @@ class Backend(Protocol):
     def publish_extras(self, publish: PublishFn) -> None:
         """Publish backend-specific data (sensors, ground truth) for this tick."""
 
+    def gripper_command(self, grip_force_n: float) -> None:
+        """Apply a grip-force command (N); backends without a gripper ignore it."""
+
     def close(self) -> None:
         """Release the robot."""
 
@@ -93,14 +96,25 @@ class SimBackend:
     def publish_extras(self, publish: PublishFn) -> None:
         return None
 
+    def gripper_command(self, grip_force_n: float) -> None:
+        return None
+
     def close(self) -> None:
         return None
 
 
-def make_backend(name: str, **kwargs: Any) -> Backend:
-    """Backend by name (``sim``)."""
+def make_backend(name: str, contact: Any = None, **kwargs: Any) -> Backend:
+    """Backend by name (``sim``); with `contact` enabled, the sim runs the contact plant."""
     from services.bridge.errors import BridgeConfigError
 
     if name == "sim":
+        if contact is not None and contact.enabled:
+            from services.bridge.contact_backend import ContactSimBackend
+
+            return ContactSimBackend(
+                behaviour=contact.behaviour, pull_angle_deg=contact.pull_angle_deg,
+                object_mass_kg=contact.object_mass_kg, mu_static=contact.mu_static,
+                mu_kinetic=contact.mu_kinetic, initial_grip_force_n=contact.initial_grip_force_n,
+                seed=contact.seed, receiver=dict(contact.receiver), **kwargs)
         return SimBackend(**kwargs)
     raise BridgeConfigError(f"unknown bridge backend {name!r} (known: sim)")

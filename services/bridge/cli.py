@@ -17,6 +17,18 @@ def _run(args: argparse.Namespace) -> int:
         table["backend"] = args.backend
     if args.rate_hz is not None:
         table["rate_hz"] = args.rate_hz
+    contact = dict(table.get("contact", {}))
+    if args.receiver:
+        contact["behaviour"] = args.receiver
+        contact.setdefault("enabled", True)
+    if args.no_contact:
+        contact["enabled"] = False
+    if args.pull_angle_deg is not None:
+        contact["pull_angle_deg"] = args.pull_angle_deg
+    if args.seed is not None:
+        contact["seed"] = args.seed
+    if contact:
+        table["contact"] = contact
     return run_bridge(profile, parse_config(table))
 
 
@@ -31,6 +43,12 @@ def main(argv: list[str] | None = None) -> int:
                         help="robot backend (overrides [services.bridge.config].backend)")
     parser.add_argument("--rate-hz", type=float, default=None,
                         help="joint-state rate in Hz (overrides the profile)")
+    sim = parser.add_argument_group("contact simulation (sim backend)")
+    sim.add_argument("--receiver", choices=["taking", "dropping", "bumping", "hesitating", "absent"],
+                     help="simulate the gripper, object and a receiver with this behaviour")
+    sim.add_argument("--no-contact", action="store_true", help="simulate the arm only")
+    sim.add_argument("--pull-angle-deg", type=float, default=None, help="receiver's pull angle φ (deg, >0 down)")
+    sim.add_argument("--seed", type=int, default=None, help="seed of the plant's noise")
     return run_main(_run, parser.parse_args(argv))
 
 

@@ -10,6 +10,35 @@ from msgspec import Meta
 from services.bridge.errors import BridgeConfigError
 
 
+ReceiverBehaviour = Literal["taking", "dropping", "bumping", "hesitating", "absent"]
+
+
+class ContactConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """The contact plant run by the sim backend (`[services.bridge.config.contact]`).
+
+    Attributes:
+        enabled: simulate gripper, object, receiver and sensors (else only the arm).
+        behaviour: receiver behaviour.
+        pull_angle_deg: pull direction φ, deg (> 0 pulls downward, thesis Fig. 21).
+        object_mass_kg: object mass, kg.
+        mu_static, mu_kinetic: friction coefficients of the two pads together.
+        initial_grip_force_n: grip before any gripper command arrives, N.
+        seed: noise seed of the plant.
+        receiver: extra behaviour parameters (e.g. ``reach_start_s = 2.0``), see
+            `robot_sim.contact.receiver`.
+    """
+
+    enabled: bool = False
+    behaviour: ReceiverBehaviour = "taking"
+    pull_angle_deg: Annotated[float, Meta(ge=-90.0, le=90.0)] = 0.0
+    object_mass_kg: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.2
+    mu_static: Annotated[float, Meta(gt=0.0, le=3.0)] = 0.6
+    mu_kinetic: Annotated[float, Meta(gt=0.0, le=3.0)] = 0.5
+    initial_grip_force_n: Annotated[float, Meta(ge=0.0, le=140.0)] = 10.0
+    seed: Annotated[int, Meta(ge=0, le=2**32 - 1)] = 0
+    receiver: dict[str, float] = {}
+
+
 class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """Bridge settings.
 
@@ -23,6 +52,7 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
             rejected (rounding), rad.
         initial_position_rad: start posture of the simulated arm (7 values), rad; empty for
             the default home posture.
+        contact: the contact plant (gripper, object, receiver, sensors).
     """
 
     backend: Literal["sim"] = "sim"
@@ -31,6 +61,7 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
     servo_time_constant_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.05
     limit_tolerance_rad: Annotated[float, Meta(ge=0.0, le=0.1)] = 1e-3
     initial_position_rad: Annotated[list[Annotated[float, Meta(ge=-10.0, le=10.0)]], Meta(max_length=7)] = []
+    contact: ContactConfig = ContactConfig()
 
 
 def parse_config(table: dict[str, Any]) -> BridgeConfig:

@@ -27,7 +27,8 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
     """Run the bridge until SIGINT/SIGTERM. Returns the exit code."""
     initial = np.array(config.initial_position_rad) if config.initial_position_rad else None
     backend = backend or make_backend(
-        config.backend, time_constant_s=config.servo_time_constant_s, initial_position_rad=initial
+        config.backend, contact=config.contact, time_constant_s=config.servo_time_constant_s,
+        initial_position_rad=initial,
     )
     gate = CommandGate(backend.joint_names, backend.limits, config.command_timeout_s,
                        config.limit_tolerance_rad)
@@ -35,6 +36,7 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
     with ServiceNode(SERVICE_NAME, profile) as node:
         state_pub = node.publisher(topics.JOINT_STATE)
         commands = node.subscribe(topics.JOINT_COMMAND)
+        grip_commands = node.subscribe(topics.GRIPPER_COMMAND)
         extra_pubs: dict[str, Any] = {}
 
         def publish_extra(suffix: str, fields: dict[str, Any]) -> None:
@@ -58,6 +60,9 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                     if reason is not None:
                         reject_log.warning("rejected", f"joint command rejected, holding: {reason}",
                                            source=rx.msg.source, seq=rx.msg.seq)
+                grips = grip_commands.drain()
+                if grips:
+                    backend.gripper_command(grips[-1].msg.grip_force_n)
                 decision = gate.decide(now_s)
                 if decision.holding:
                     backend.hold()
