@@ -1,0 +1,231 @@
+"""The simulated Kinect: a receiver, the table, the object and Baxter's arm, seen in depth,
+plus the skeleton a real tracker would report.
+
+Use::
+
+    sim = KinectSim(seed=3, scenario=KinectScenario(posture="sitting"))
+    frame = sim.step(t_s, q_arm_rad)                     # 30 Hz
+    skeleton_pub.put(**frame.skeleton_fields)            # bus_schema.messages.Skeleton
+    depth_pub.put(**frame.depth_fields)                  # bus_schema.messages.DepthImage
+    frame.truth.right_hand_m                             # ground truth (for SimTruth)
+
+Frames: everything in Baxter's `base` (x forward, y left, z up), metres; the camera's pose
+and intrinsics are in `robot_sim.kinect.camera`, the table and the receiver's placement in
+`robot_sim.scene`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+
+from bus_schema.messages import SKELETON_JOINTS
+from robot_sim import scene
+from robot_sim.kinect.camera import KinectCamera
+from robot_sim.kinect.depth import DepthRenderer, kinect_depth_mm
+from robot_sim.kinect.receiver import BodySize, ReceiverBody, min_jerk
+from robot_sim.kinect.robot_geometry import ArmGeometry
+from robot_sim.kinect.shapes import Box, Capsule
+from robot_sim.kinect.skeleton_model import SkeletonErrorModel, SkeletonErrorParams
+
+TABLE_THICKNESS_M = 0.03
+TABLE_LEG_RADIUS_M = 0.025
+#: Default object: a 6 x 6 x 12 cm box (x, y, z), as the bottle-sized objects of the thesis.
+DEFAULT_OBJECT_SIZE_M = (0.06, 0.06, 0.12)
+
+
+def table_boxes_and_legs() -> tuple[Box, list[Capsule]]:
+    """The table top (a box) and its four legs (capsules) from `robot_sim.scene`."""
+    c = scene.TABLE_TOP_CENTRE_BASE_M
+    half = np.array([scene.TABLE_DEPTH_M / 2.0, scene.TABLE_WIDTH_M / 2.0])
+    top = Box(
+        np.array([c[0] - half[0], c[1] - half[1], c[2] - TABLE_THICKNESS_M]),
+        np.array([c[0] + half[0], c[1] + half[1], c[2]]),
+    )
+    floor_z = -scene.BASE_HEIGHT_ABOVE_FLOOR_M
+    legs = []
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            x = c[0] + sx * (half[0] - 0.04)
+            y = c[1] + sy * (half[1] - 0.04)
+            legs.append(Capsule(np.array([x, y, floor_z]), np.array([x, y, c[2] - TABLE_THICKNESS_M]), TABLE_LEG_RADIUS_M))
+    return top, legs
+
+
+def object_box(centre_m: np.ndarray, size_m: tuple[float, float, float]) -> Box:
+    """Axis-aligned box of the object centred at `centre_m` (m, `base`)."""
+    half = np.asarray(size_m, float) / 2.0
+    centre = np.asarray(centre_m, float)
+    return Box(centre - half, centre + half)
+
+
+@dataclass(frozen=True)
+class KinectScenario:
+    """What the simulated Kinect sees (SI units, `base` frame).
+
+    Attributes:
+        height_m, posture: the receiver's body.
+        hand_target_base_m: where the receiver's right hand reaches to (None: it stays at
+            rest until `KinectSim.set_hand_target` is called).
+        reach_start_s, reach_duration_s: minimum-jerk reach timing.
+        object_size_m: the object's box extents (x, y, z).
+        skeleton_errors: the skeleton tracker's error model.
+        depth_dropout_fraction: fraction of depth pixels with no reading.
+        depth_noise: add Kinect depth noise (False: quantisation only).
+    """
+
+    height_m: float = 1.75
+    posture: Literal["standing", "sitting"] = "standing"
+    hand_target_base_m: tuple[float, float, float] | None = None
+    reach_start_s: float = 0.5
+    reach_duration_s: float = 1.5
+    object_size_m: tuple[float, float, float] = DEFAULT_OBJECT_SIZE_M
+    skeleton_errors: SkeletonErrorParams = field(default_factory=SkeletonErrorParams)
+    depth_dropout_fraction: float = 0.005
+    depth_noise: bool = True
+
+    def __post_init__(self) -> None:
+        if not 1.2 <= self.height_m <= 2.2:
+            raise ValueError(f"receiver height {self.height_m} m outside 1.2–2.2 m")
+        if self.posture not in ("standing", "sitting"):
+            raise ValueError(f"posture must be standing or sitting, not {self.posture!r}")
+        if self.reach_duration_s <= 0.0:
+            raise ValueError("reach_duration_s must be > 0")
+
+
+@dataclass(frozen=True)
+class KinectTruth:
+    """Ground truth of one frame (m, `base`)."""
+
+    t_s: float
+    joints_m: dict[str, np.ndarray]
+    right_hand_m: np.ndarray
+    robot_tool_m: np.ndarray
+    object_position_m: np.ndarray
+    object_size_m: tuple[float, float, float]
+    body: BodySize
+
+
+@dataclass(frozen=True)
+class KinectFrame:
+    """One 30 Hz output of the simulated Kinect.
+
+    Attributes:
+        skeleton_fields: keyword fields of `bus_schema.messages.Skeleton` (no header).
+        depth_fields: keyword fields of `bus_schema.messages.DepthImage` (no header).
+        depth_mm: the depth image (H, W) uint16 mm (0 = no reading), same data as
+            `depth_fields["depth_mm"]`.
+        truth: ground truth.
+    """
+
+    skeleton_fields: dict[str, Any]
+    depth_fields: dict[str, Any]
+    depth_mm: np.ndarray
+    truth: KinectTruth
+
+
+class KinectSim:
+    """Seeded simulated Kinect (depth + skeleton) of the handover scene.
+
+    Args:
+        seed: random seed (skeleton errors, depth noise).
+        scenario: what is in the scene.
+        camera: sensor pose and intrinsics (default: `robot_sim.kinect.camera`).
+        arm_geometry: Baxter's arm capsules (default: loads the Baxter model).
+    """
+
+    def __init__(
+        self,
+        seed: int = 0,
+        scenario: KinectScenario | None = None,
+        camera: KinectCamera | None = None,
+        arm_geometry: ArmGeometry | None = None,
+    ) -> None:
+        self.scenario = scenario or KinectScenario()
+        self.camera = camera or KinectCamera()
+        self.arm = arm_geometry or ArmGeometry()
+        self.rng = np.random.default_rng(seed)
+        self.body = ReceiverBody(BodySize(self.scenario.height_m, self.scenario.posture))
+        self.errors = SkeletonErrorModel(self.scenario.skeleton_errors, self.rng)
+        self.renderer = DepthRenderer(self.camera)
+        self._table_top, self._table_legs = table_boxes_and_legs()
+        self._hand_start = self.body.rest_hand_m
+        target = self.scenario.hand_target_base_m
+        self._hand_target = None if target is None else np.asarray(target, float)
+        self._reach_start_s = self.scenario.reach_start_s
+        self._reach_duration_s = self.scenario.reach_duration_s
+        self._last_hand = self._hand_start.copy()
+
+    def set_hand_target(self, target_base_m: np.ndarray | None, start_s: float, duration_s: float) -> None:
+        """Start a minimum-jerk reach of the right hand from where it is now to `target_base_m`
+        (None: back to rest), beginning at `start_s` and lasting `duration_s` seconds."""
+        if duration_s <= 0.0:
+            raise ValueError("duration_s must be > 0")
+        self._hand_start = self._last_hand.copy()
+        self._hand_target = self.body.rest_hand_m if target_base_m is None else np.asarray(target_base_m, float)
+        self._reach_start_s = float(start_s)
+        self._reach_duration_s = float(duration_s)
+
+    def true_hand(self, t_s: float) -> np.ndarray:
+        """Commanded true right-hand position at `t_s` (before the arm's reach limit)."""
+        if self._hand_target is None:
+            return self._hand_start.copy()
+        s = min_jerk((t_s - self._reach_start_s) / self._reach_duration_s)
+        return self._hand_start + s * (self._hand_target - self._hand_start)
+
+    def step(
+        self,
+        t_s: float,
+        q_arm_rad: np.ndarray,
+        object_position_m: np.ndarray | None = None,
+    ) -> KinectFrame:
+        """Render the frame at time `t_s` (s, increasing).
+
+        Args:
+            q_arm_rad: Baxter right-arm joints (7,), rad.
+            object_position_m: object centre (m, `base`); default: waiting on the table at
+                `robot_sim.scene.OBJECT_PICK_BASE_M`.
+        """
+        joints = self.body.joints(self.true_hand(t_s))
+        self._last_hand = joints["right_hand"].copy()
+        joints_arr = np.stack([joints[n] for n in SKELETON_JOINTS])
+        tool = self.arm.tool_position(q_arm_rad)
+        obj = scene.OBJECT_PICK_BASE_M if object_position_m is None else np.asarray(object_position_m, float)
+        capsules = self.body.capsules(joints) + self.arm.capsules(q_arm_rad) + self._table_legs
+        boxes = [self._table_top, object_box(obj, self.scenario.object_size_m)]
+        depth_m = self.renderer.render(capsules, boxes, floor_z_m=-scene.BASE_HEIGHT_ABOVE_FLOOR_M)
+        noise_rng = self.rng if self.scenario.depth_noise else None
+        depth_mm = kinect_depth_mm(depth_m, noise_rng, self.scenario.depth_dropout_fraction if noise_rng else 0.0)
+        tracked, est, conf = self.errors.step(t_s, joints_arr, tool)
+        skeleton_fields: dict[str, Any] = {"tracked": tracked, "user_id": 1 if tracked else 0, "joints": []}
+        if tracked:
+            from bus_schema.messages import SkeletonJoint
+
+            skeleton_fields["joints"] = [
+                SkeletonJoint(name=n, position_m=tuple(float(c) for c in est[i]), confidence=float(conf[i]))
+                for i, n in enumerate(SKELETON_JOINTS)
+            ]
+        c = self.camera
+        depth_fields = {
+            "width": c.width_px,
+            "height": c.height_px,
+            "depth_mm": depth_mm.astype("<u2").tobytes(),
+            "fx": c.fx_px,
+            "fy": c.fy_px,
+            "cx": c.cx_px,
+            "cy": c.cy_px,
+            "camera_position_m": tuple(float(v) for v in c.position_m),
+            "camera_orientation_xyzw": c.orientation_xyzw,
+        }
+        truth = KinectTruth(
+            t_s=float(t_s),
+            joints_m=joints,
+            right_hand_m=joints["right_hand"].copy(),
+            robot_tool_m=tool,
+            object_position_m=obj.copy(),
+            object_size_m=self.scenario.object_size_m,
+            body=self.body.size,
+        )
+        return KinectFrame(skeleton_fields, depth_fields, depth_mm, truth)

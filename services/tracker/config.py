@@ -1,0 +1,133 @@
+"""Typed, validated tracker configuration (SI units).
+
+Read from ``[services.tracker.config]`` of the deploy profile and overridden by the CLI.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+import msgspec
+
+from robot_sim import scene
+from services.tracker.errors import TrackerConfigError
+
+
+class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """Tracker settings.
+
+    Attributes:
+        lag_correction: apply Mincelli's lag correction (a).
+        lag_reference: "closest" is measured from the ``sensor`` (Mincelli et al.'s Kinect
+            faced the receiver at hand height) or from the ``robot_hand`` the receiver reaches
+            for (better for a sensor above the robot; falls back to the sensor when the
+            joint state is stale).
+        lag_min_speed_m_s: apply (a) only while the raw hand estimate moves faster than this,
+            measured over `lag_speed_window_s` (the lag only matters while the hand moves;
+            0 applies it on every frame).
+        lag_speed_window_s: window of that speed (s), long enough to average out jitter.
+        lag_box_half_size_m: half edge of the cube around the hand estimate searched for
+            the human's closest point.
+        lag_snap_radius_m: average the cloud points within this radius of the closest point
+            (0: take the single closest point, exactly as Mincelli et al.).
+        lag_surface_offset_m: push the snapped surface point away from the sensor by this
+            much, from the hand's visible surface toward its centre.
+        proximity_filter: apply Mincelli's robot-proximity filter (b).
+        proximity_engage_m: the filter engages when the robot's hand is closer than this to
+            the human's hand estimate (Mincelli et al.: 15 cm).
+        proximity_release_m: and releases when farther than this (hysteresis).
+        proximity_mode: ``hold`` the last estimate, or ``predict`` it with the velocity it had,
+            decaying with `predict_time_constant_s`.
+        predict_time_constant_s: velocity decay of ``predict`` (s).
+        remove_robot_points: remove points inside the robot's link capsules from the cloud.
+        robot_point_margin_m: inflate the robot's capsules by this much for the removal.
+        gripper_clearance_radius_m: also remove points within this radius of the tool frame
+            (the fingers and a held object).
+        skeleton_timeout_s: a skeleton older than this (local receive time) means not tracked.
+        depth_max_age_s: depth older than this (relative to the skeleton) is not used.
+        joint_state_timeout_s: joint state older than this is not used for (b).
+        body_window_frames: body dimensions are medians over this many recent frames.
+        weight_kg: receiver's body weight from the profile (a camera cannot weigh).
+        object_mass_kg: object mass from the task description.
+        object_every_n_depth_frames: run object detection on every n-th depth frame.
+        object_min_height_m, object_max_height_m: object points lie this high above the table.
+        object_min_pixels: smallest blob taken for an object.
+        floor_z_m: floor height in `base` (m).
+        rate_hz: the node's loop rate.
+    """
+
+    lag_correction: bool = True
+    lag_reference: Literal["sensor", "robot_hand"] = "robot_hand"
+    lag_min_speed_m_s: float = 0.35
+    lag_speed_window_s: float = 0.3
+    lag_box_half_size_m: float = 0.12
+    lag_snap_radius_m: float = 0.04
+    lag_surface_offset_m: float = 0.03
+    proximity_filter: bool = True
+    proximity_engage_m: float = 0.15
+    proximity_release_m: float = 0.17
+    proximity_mode: Literal["hold", "predict"] = "hold"
+    predict_time_constant_s: float = 0.15
+    remove_robot_points: bool = True
+    robot_point_margin_m: float = 0.03
+    gripper_clearance_radius_m: float = 0.08
+    skeleton_timeout_s: float = 0.5
+    depth_max_age_s: float = 0.2
+    joint_state_timeout_s: float = 0.5
+    body_window_frames: int = 90
+    weight_kg: float = 75.0
+    object_mass_kg: float = 0.5
+    object_every_n_depth_frames: int = 3
+    object_min_height_m: float = 0.02
+    object_max_height_m: float = 0.40
+    object_min_pixels: int = 20
+    floor_z_m: float = -scene.BASE_HEIGHT_ABOVE_FLOOR_M
+    rate_hz: float = 60.0
+
+    def __post_init__(self) -> None:
+        checks = [
+            (0.01 <= self.lag_box_half_size_m <= 0.5, "lag_box_half_size_m must be in 0.01..0.5 m"),
+            (0.0 <= self.lag_min_speed_m_s <= 10.0, "lag_min_speed_m_s must be in 0..10 m/s"),
+            (0.03 <= self.lag_speed_window_s <= 2.0, "lag_speed_window_s must be in 0.03..2 s"),
+            (0.0 <= self.lag_snap_radius_m <= 0.2, "lag_snap_radius_m must be in 0..0.2 m"),
+            (0.0 <= self.lag_surface_offset_m <= 0.1, "lag_surface_offset_m must be in 0..0.1 m"),
+            (0.0 < self.proximity_engage_m <= 1.0, "proximity_engage_m must be in (0, 1] m"),
+            (
+                self.proximity_engage_m <= self.proximity_release_m <= 1.5,
+                "proximity_release_m must be >= proximity_engage_m and <= 1.5 m",
+            ),
+            (self.predict_time_constant_s > 0.0, "predict_time_constant_s must be > 0"),
+            (0.0 <= self.robot_point_margin_m <= 0.2, "robot_point_margin_m must be in 0..0.2 m"),
+            (0.0 <= self.gripper_clearance_radius_m <= 0.3, "gripper_clearance_radius_m must be in 0..0.3 m"),
+            (self.skeleton_timeout_s > 0.0, "skeleton_timeout_s must be > 0"),
+            (self.depth_max_age_s > 0.0, "depth_max_age_s must be > 0"),
+            (self.joint_state_timeout_s > 0.0, "joint_state_timeout_s must be > 0"),
+            (1 <= self.body_window_frames <= 10000, "body_window_frames must be in 1..10000"),
+            (0.0 <= self.weight_kg <= 400.0, "weight_kg must be in 0..400 kg"),
+            (0.0 <= self.object_mass_kg <= 1000.0, "object_mass_kg must be in 0..1000 kg"),
+            (1 <= self.object_every_n_depth_frames <= 1000, "object_every_n_depth_frames must be >= 1"),
+            (
+                0.0 <= self.object_min_height_m < self.object_max_height_m <= 2.0,
+                "need 0 <= object_min_height_m < object_max_height_m <= 2 m",
+            ),
+            (self.object_min_pixels >= 1, "object_min_pixels must be >= 1"),
+            (-5.0 <= self.floor_z_m <= 0.0, "floor_z_m must be in -5..0 m"),
+            (0.0 < self.rate_hz <= 1000.0, "rate_hz must be in (0, 1000] Hz"),
+        ]
+        for ok, message in checks:
+            if not ok:
+                raise TrackerConfigError(f"invalid tracker config: {message}")
+
+
+def config_from_dict(values: dict) -> TrackerConfig:
+    """Build a `TrackerConfig` from a profile/CLI dict, with a one-line error on bad input.
+
+    Raises:
+        TrackerConfigError: unknown key, wrong type or out-of-range value.
+    """
+    try:
+        return msgspec.convert(values, TrackerConfig)
+    except TrackerConfigError:
+        raise
+    except msgspec.ValidationError as exc:
+        raise TrackerConfigError(f"invalid tracker config: {exc}") from None

@@ -1,0 +1,21 @@
+"""The tracker's one exception root (a `ServiceError`, so the common CLI reports it in one
+line with the right exit code)."""
+
+from services.runtime.errors import ServiceError
+
+
+class TrackerError(ServiceError):
+    """Root of every tracker error; the message says what to check."""
+
+
+class TrackerConfigError(TrackerError):
+    """The tracker configuration is invalid (check [services.tracker.config] or the CLI)."""
+
+    bad_input = True
+
+
+class ReplayFileError(TrackerError):
+    """A replay file cannot be read or written (check its path and that it was recorded by
+    `handover-tracker record`)."""
+
+    bad_input = True

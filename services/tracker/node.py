@@ -1,0 +1,159 @@
+"""Bus wiring of the tracker: skeleton, depth and joint state in; human state and object out.
+
+Live: subscribes `perception/skeleton`, `perception/depth`, `robot/joint_state`.
+Replay: reads a replay file instead, paced in real time, and publishes the same outputs, so
+the tracker runs without the simulator. Publishes `perception/human` on every skeleton frame
+(and at 10 Hz when frames stop coming, with ``tracked = False``) and `perception/object`
+whenever an object detection runs.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+
+from bus_schema import topics as T
+from robot_sim.baxter import RIGHT_ARM_JOINTS
+from robot_sim.kinect.robot_geometry import ArmGeometry
+from services.runtime import ServiceNode
+from services.runtime.logs import RateLimitedLog
+from services.runtime.profile import Profile
+from services.tracker.config import TrackerConfig
+from services.tracker.core import HumanEstimate, TrackerPipeline, skeleton_frame_from_message
+from services.tracker.objects import ObjectDetection
+from services.tracker.pointcloud import depth_frame_from_message
+from services.tracker.replay import ReplayItem, read_replay
+
+log = logging.getLogger("tracker")
+HEARTBEAT_S = 0.1
+
+
+def _vec(v: np.ndarray) -> tuple[float, float, float]:
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+def human_fields(est: HumanEstimate) -> dict:
+    """`HumanState` fields (no header) of an estimate."""
+    return {
+        "tracked": est.tracked,
+        "hand_position_m": _vec(est.hand_m),
+        "hand_raw_position_m": _vec(est.hand_raw_m),
+        "correction": est.correction,
+        "torso_position_m": _vec(est.torso_m),
+        "height_m": est.body.height_m,
+        "arm_span_m": est.body.arm_span_m,
+        "shoulder_height_m": est.body.shoulder_height_m,
+        "posture": est.body.posture,
+        "weight_kg": est.weight_kg,
+        "frame_age_s": min(est.frame_age_s, 86400.0),
+    }
+
+
+def object_fields(det: ObjectDetection, mass_kg: float) -> dict:
+    """`ObjectEstimate` fields (no header) of a detection."""
+    if not det.found:
+        return {"found": False, "mass_kg": mass_kg}
+    return {
+        "found": True,
+        "position_m": _vec(det.position_m),
+        "size_m": tuple(float(max(0.0, s)) for s in det.size_m),
+        "mass_kg": mass_kg,
+    }
+
+
+class _Feeder:
+    """Feeds messages into the pipeline and remembers what changed."""
+
+    def __init__(self, pipe: TrackerPipeline) -> None:
+        self.pipe = pipe
+        self.warnings = RateLimitedLog(log, 5.0)
+        self.human: list[HumanEstimate] = []
+
+    def joint_state(self, msg, t_s: float) -> None:
+        index = {n: i for i, n in enumerate(msg.names)}
+        if any(n not in index for n in RIGHT_ARM_JOINTS) or len(msg.position_rad) != len(msg.names):
+            self.warnings.warning("joint_state", "joint_state without the right-arm joints: ignored")
+            return
+        self.pipe.on_joint_state(np.array([msg.position_rad[index[n]] for n in RIGHT_ARM_JOINTS]), t_s)
+
+    def depth(self, msg, t_s: float) -> None:
+        try:
+            self.pipe.on_depth(depth_frame_from_message(msg, t_s))
+        except ValueError as exc:  # e.g. a zero-norm or inconsistent camera pose
+            self.warnings.warning("depth", f"depth image ignored: {exc}")
+
+    def skeleton(self, msg, t_s: float) -> None:
+        self.human.append(self.pipe.on_skeleton(skeleton_frame_from_message(msg, t_s)))
+
+
+def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None = None, replay_loop: bool = False) -> int:
+    """Run the tracker until shutdown (or the end of the replay file)."""
+    arm = ArmGeometry()
+    pipe = TrackerPipeline(config, arm)
+    feeder = _Feeder(pipe)
+    with ServiceNode("tracker", profile) as node:
+        human_pub = node.publisher(T.HUMAN)
+        object_pub = node.publisher(T.OBJECT)
+        subs = None
+        replay_iter = None
+        pending: ReplayItem | None = None
+        start = time.monotonic()
+        if replay_path is None:
+            subs = (node.subscribe(T.JOINT_STATE), node.subscribe(T.DEPTH, queue_size=4), node.subscribe(T.SKELETON))
+        else:
+            replay_iter = iter(read_replay(replay_path))
+            log.info("replaying %s", replay_path)
+        last_publish = 0.0
+        last_status = None
+        for _tick in node.loop(config.rate_hz):
+            now = time.monotonic()
+            if subs is not None:
+                js_sub, depth_sub, skel_sub = subs
+                for rx in js_sub.drain():
+                    feeder.joint_state(rx.msg, rx.rx_monotonic)
+                depths = depth_sub.drain()
+                if depths:
+                    feeder.depth(depths[-1].msg, depths[-1].rx_monotonic)
+                for rx in skel_sub.drain():
+                    feeder.skeleton(rx.msg, rx.rx_monotonic)
+            else:
+                while True:
+                    if pending is None:
+                        pending = next(replay_iter, None)
+                        if pending is None:
+                            if not replay_loop:
+                                log.info("replay finished")
+                                node.request_stop()
+                                break
+                            replay_iter = iter(read_replay(replay_path))
+                            start = now
+                            continue
+                    if start + pending.t_s > now:
+                        break
+                    item, pending = pending, None
+                    if item.topic is T.JOINT_STATE:
+                        feeder.joint_state(item.msg, now)
+                    elif item.topic is T.DEPTH:
+                        feeder.depth(item.msg, now)
+                    elif item.topic is T.SKELETON:
+                        feeder.skeleton(item.msg, now)
+            det = pipe.detect_object()
+            if det is not None:
+                object_pub.put(**object_fields(det, config.object_mass_kg))
+            if feeder.human:
+                feeder.human.clear()
+                state = pipe.human_state(now)
+            elif now - last_publish >= HEARTBEAT_S:
+                state = pipe.human_state(now)
+            else:
+                continue
+            human_pub.put(**human_fields(state))
+            last_publish = now
+            status = (state.tracked, state.status)
+            if status != last_status:
+                log.info("human %s%s", "tracked" if state.tracked else "not tracked", f": {state.status}" if state.status else "")
+                last_status = status
+    return 0

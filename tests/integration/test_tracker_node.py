@@ -1,0 +1,79 @@
+"""The tracker as a real process on a loopback bus: skeleton + depth + joint state in,
+HumanState and ObjectEstimate out; garbage and silence handled."""
+
+from __future__ import annotations
+
+import queue
+import time
+
+import numpy as np
+import pytest
+
+from bus_schema import topics as T
+from bus_schema.codec import decode, encode
+from bus_schema.messages import DepthImage, JointState, Skeleton
+from robot_sim import scene
+from robot_sim.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
+from robot_sim.kinect import KinectScenario, KinectSim
+from services.runtime.testing import BusRouter, ServiceProcess, client_session, loopback_profile, wait_alive, wait_until
+
+pytestmark = pytest.mark.integration
+
+
+def test_tracker_process_publishes_human_and_object_and_survives_garbage_and_silence():
+    profile = loopback_profile()
+    sim = KinectSim(seed=2, scenario=KinectScenario())
+    q = np.array(RIGHT_ARM_HOME_RAD)
+    frames = [sim.step(k / 30.0, q) for k in range(6)]
+    with BusRouter(profile):
+        session = client_session(profile)
+        humans: queue.Queue = queue.Queue()
+        objects: queue.Queue = queue.Queue()
+        subs = [
+            session.declare_subscriber(T.HUMAN.key(profile.prefix), lambda s: humans.put(decode(T.HUMAN, s.payload.to_bytes()))),
+            session.declare_subscriber(T.OBJECT.key(profile.prefix), lambda s: objects.put(decode(T.OBJECT, s.payload.to_bytes()))),
+        ]
+        pubs = {t: session.declare_publisher(t.key(profile.prefix)) for t in (T.SKELETON, T.DEPTH, T.JOINT_STATE)}
+        try:
+            with ServiceProcess("services.tracker", profile, name="tracker", args=["--weight-kg", "68"]) as proc:
+                wait_alive(session, profile, {"tracker"}, timeout_s=30.0)
+                pubs[T.SKELETON].put(b"\x93garbage")  # dropped, not a crash
+                pubs[T.DEPTH].put(b"\x00")
+                seq = 0
+                got_tracked = False
+                end = time.monotonic() + 15.0
+                while time.monotonic() < end and not (got_tracked and not objects.empty()):
+                    f = frames[seq % len(frames)]
+                    pubs[T.JOINT_STATE].put(encode(JointState(seq=seq, stamp_ns=0, source="sim", names=list(RIGHT_ARM_JOINTS),
+                                                              position_rad=list(q), velocity_rad_s=[0.0] * 7)))
+                    pubs[T.DEPTH].put(encode(DepthImage(seq=seq, stamp_ns=0, source="sim", **f.depth_fields)))
+                    pubs[T.SKELETON].put(encode(Skeleton(seq=seq, stamp_ns=0, source="sim", **f.skeleton_fields)))
+                    seq += 1
+                    time.sleep(1 / 30)
+                    while not humans.empty():
+                        h = humans.get()
+                        if h.tracked:
+                            got_tracked = True
+                            last = h
+                assert proc.proc.poll() is None, proc.log_text()
+                assert got_tracked, proc.log_text()
+                truth_hand = frames[-1].truth.right_hand_m
+                assert np.linalg.norm(np.array(last.hand_raw_position_m) - truth_hand) < 0.4
+                assert last.weight_kg == pytest.approx(68.0)
+                obj = objects.get(timeout=5.0)
+                assert obj.found
+                np.testing.assert_allclose(obj.position_m, scene.OBJECT_PICK_BASE_M, atol=0.03)
+                # Silence: within about a second the tracker says the person is not tracked.
+                def untracked() -> bool:
+                    try:
+                        return not humans.get(timeout=0.2).tracked
+                    except queue.Empty:
+                        return False
+                assert wait_until(untracked, 3.0), proc.log_text()
+                assert proc.proc.poll() is None
+        finally:
+            for s in subs:
+                s.undeclare()
+            for p in pubs.values():
+                p.undeclare()
+            session.close()
