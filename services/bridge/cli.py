@@ -29,6 +29,10 @@ def _run(args: argparse.Namespace) -> int:
         contact["seed"] = args.seed
     if contact:
         table["contact"] = contact
+    if args.kinect or args.no_kinect:
+        kinect = dict(table.get("kinect", {}))
+        kinect["enabled"] = bool(args.kinect)
+        table["kinect"] = kinect
     return run_bridge(profile, parse_config(table))
 
 
@@ -49,6 +53,8 @@ def main(argv: list[str] | None = None) -> int:
     sim.add_argument("--no-contact", action="store_true", help="simulate the arm only")
     sim.add_argument("--pull-angle-deg", type=float, default=None, help="receiver's pull angle φ (deg, >0 down)")
     sim.add_argument("--seed", type=int, default=None, help="seed of the plant's noise")
+    sim.add_argument("--kinect", action="store_true", help="publish the simulated Kinect's skeleton and depth")
+    sim.add_argument("--no-kinect", action="store_true", help="do not simulate the Kinect")
     return run_main(_run, parser.parse_args(argv))
 
 

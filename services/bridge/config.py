@@ -39,6 +39,30 @@ class ContactConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
     receiver: dict[str, float] = {}
 
 
+class KinectConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
+    """The simulated Kinect run by the sim backend (`[services.bridge.config.kinect]`).
+
+    Attributes:
+        enabled: render depth and produce the skeleton (robot_sim.kinect) at `rate_hz`.
+        rate_hz: frame rate, Hz (Kinect: 30).
+        height_m: receiver's height, m.
+        posture: standing or sitting.
+        hand_target_base_m: where the receiver's right hand reaches (base frame, m); empty:
+            the hand stays at rest.
+        reach_start_s, reach_duration_s: when and how long the reach takes, s from start.
+        seed: noise seed.
+    """
+
+    enabled: bool = False
+    rate_hz: Annotated[float, Meta(gt=0.0, le=60.0)] = 30.0
+    height_m: Annotated[float, Meta(ge=1.0, le=2.3)] = 1.75
+    posture: Literal["standing", "sitting"] = "standing"
+    hand_target_base_m: Annotated[list[Annotated[float, Meta(ge=-5.0, le=5.0)]], Meta(max_length=3)] = []
+    reach_start_s: Annotated[float, Meta(ge=0.0, le=600.0)] = 0.5
+    reach_duration_s: Annotated[float, Meta(gt=0.0, le=60.0)] = 1.5
+    seed: Annotated[int, Meta(ge=0, le=2**32 - 1)] = 0
+
+
 class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """Bridge settings.
 
@@ -53,6 +77,7 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
         initial_position_rad: start posture of the simulated arm (7 values), rad; empty for
             the default home posture.
         contact: the contact plant (gripper, object, receiver, sensors).
+        kinect: the simulated Kinect (skeleton and depth of the receiver).
     """
 
     backend: Literal["sim"] = "sim"
@@ -62,6 +87,7 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
     limit_tolerance_rad: Annotated[float, Meta(ge=0.0, le=0.1)] = 1e-3
     initial_position_rad: Annotated[list[Annotated[float, Meta(ge=-10.0, le=10.0)]], Meta(max_length=7)] = []
     contact: ContactConfig = ContactConfig()
+    kinect: KinectConfig = KinectConfig()
 
 
 def parse_config(table: dict[str, Any]) -> BridgeConfig:
@@ -78,4 +104,6 @@ def parse_config(table: dict[str, Any]) -> BridgeConfig:
         raise BridgeConfigError(
             "invalid [services.bridge.config]: initial_position_rad needs 7 values (right_s0…right_w2)"
         )
+    if cfg.kinect.hand_target_base_m and len(cfg.kinect.hand_target_base_m) != 3:
+        raise BridgeConfigError("invalid [services.bridge.config.kinect]: hand_target_base_m needs 3 values (x, y, z)")
     return cfg

@@ -45,6 +45,13 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                 pub = extra_pubs[suffix] = node.publisher(topics.TOPICS_BY_SUFFIX[suffix])
             pub.put(**fields)
 
+        kinect = None
+        if config.kinect.enabled:
+            from services.bridge.kinect_thread import KinectThread
+
+            kinect = KinectThread(config.kinect, node)
+            kinect.update_arm(backend.read().position_rad)
+            kinect.start()
         log.info("bridge running", extra=kv(backend=backend.name, rate_hz=config.rate_hz,
                                             command_timeout_s=config.command_timeout_s))
         last_s = time.monotonic()
@@ -83,7 +90,11 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                     enabled=True,
                 )
                 backend.publish_extras(publish_extra)
+                if kinect is not None:
+                    kinect.update_arm(reading.position_rad)
         finally:
+            if kinect is not None:
+                kinect.stop()
             backend.close()
             log.info("bridge stopped", extra=kv(accepted=gate.accepted, rejected=gate.rejected))
     return 0

@@ -41,7 +41,7 @@ def _run(args: argparse.Namespace) -> int:
         job=args.job or str(cfg.get("job", "demo")),
         run_id=args.run_id or time.strftime("%Y%m%d-%H%M%S"),
         recording_dir=Path(args.recording_dir or cfg.get("recording_dir", "recordings")),
-        alive_timeout_s=float(args.alive_timeout_s or cfg.get("alive_timeout_s", 15.0)),
+        alive_timeout_s=float(args.alive_timeout_s or cfg.get("alive_timeout_s", 30.0)),
         term_timeout_s=float(cfg.get("term_timeout_s", 5.0)),
     )
     if not 0 < options.alive_timeout_s <= 600:
@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--run-id", default=None, help="name of this run (default: the start time)")
     parser.add_argument("--recording-dir", default=None, help="where the recording goes (default: recordings/)")
     parser.add_argument("--alive-timeout-s", type=float, default=None,
-                        help="how long every service may take to come up (default: the profile's, 15 s)")
+                        help="how long every service may take to come up (default: the profile's, 30 s)")
     parser.set_defaults(service_name="handover-up")
     return run_main(_run, parser.parse_args(argv))
 

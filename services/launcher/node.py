@@ -59,7 +59,7 @@ class LaunchOptions:
     job: str = "demo"
     run_id: str = field(default_factory=lambda: time.strftime("%Y%m%d-%H%M%S"))
     recording_dir: Path = Path("recordings")
-    alive_timeout_s: float = 15.0
+    alive_timeout_s: float = 30.0
     term_timeout_s: float = 5.0
 
 

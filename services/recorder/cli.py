@@ -22,7 +22,7 @@ def _record(args: argparse.Namespace) -> int:
 
     profile = load_profile(args)
     cfg = profile.service_config("recorder")
-    unknown = set(cfg) - {"urdf", "output_dir", "flush_period_s"}
+    unknown = set(cfg) - {"urdf", "output_dir", "flush_period_s", "depth_every"}
     if unknown:
         raise RecorderError(f"unknown keys in [services.recorder.config]: {sorted(unknown)}")
     if args.output:
@@ -35,8 +35,11 @@ def _record(args: argparse.Namespace) -> int:
     flush = float(cfg.get("flush_period_s", 0.25))
     if not 0.01 <= flush <= 10:
         raise RecorderError("[services.recorder.config].flush_period_s must be within 0.01–10 s")
+    depth_every = cfg.get("depth_every", 3)
+    if not isinstance(depth_every, int) or not 1 <= depth_every <= 100:
+        raise RecorderError("[services.recorder.config].depth_every must be an integer within 1–100")
     return run_recorder(profile, output, log_urdf=bool(cfg.get("urdf", True)) and not args.no_urdf,
-                        flush_period_s=flush)
+                        flush_period_s=flush, depth_every=depth_every)
 
 
 def _inspect(args: argparse.Namespace) -> int:

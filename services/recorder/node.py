@@ -22,7 +22,7 @@ import zenoh
 
 from bus_schema import decode, topic_for_key
 from bus_schema.codec import DecodeError
-from bus_schema.messages import JointState
+from bus_schema.messages import DepthImage, JointState
 from services.recorder.core import event_key, to_rerun
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 
@@ -82,8 +82,13 @@ def default_output_path(directory: Path, run_id: str) -> Path:
 
 
 def run_recorder(profile: Profile, output: Path, log_urdf: bool = True,
-                 flush_period_s: float = 0.25, application_id: str = "handover") -> int:
-    """Record the bus into `output` until SIGINT/SIGTERM."""
+                 flush_period_s: float = 0.25, application_id: str = "handover",
+                 depth_every: int = 3) -> int:
+    """Record the bus into `output` until SIGINT/SIGTERM.
+
+    Depth images (150 kB each at 30 Hz) are logged one in `depth_every` to keep recordings
+    small; every other message is logged.
+    """
     output.parent.mkdir(parents=True, exist_ok=True)
     rec = rr.RecordingStream(application_id, recording_id=output.stem)
     rec.save(str(output))
@@ -91,6 +96,7 @@ def run_recorder(profile: Profile, output: Path, log_urdf: bool = True,
     bad_log = RateLimitedLog(log, 1.0)
     inbox: queue.SimpleQueue[tuple[str, bytes]] = queue.SimpleQueue()
     last_event: dict[str, tuple] = {}
+    depth_seen = [0]
 
     def on_sample(sample: zenoh.Sample) -> None:  # Zenoh thread: enqueue only
         inbox.put((str(sample.key_expr), sample.payload.to_bytes()))
@@ -107,6 +113,11 @@ def run_recorder(profile: Profile, output: Path, log_urdf: bool = True,
             stats.rejected += 1
             bad_log.warning(f"bad:{key}", f"recorder: dropped undecodable payload on {key}: {exc}")
             return
+        if isinstance(msg, DepthImage):
+            depth_seen[0] += 1
+            if (depth_seen[0] - 1) % depth_every:
+                stats.logged[topic.suffix] = stats.logged.get(topic.suffix, 0) + 1
+                return
         rec.set_time("time", timestamp=np.datetime64(msg.stamp_ns, "ns"))
         ekey = event_key(msg)
         fresh_event = ekey is not None and last_event.get(topic.suffix) != ekey
