@@ -1,10 +1,9 @@
-"""`python -m services.gripper`: the analysis and reproduction command line.
+"""`python -m services.gripper`: the gripper service (see `services.gripper.cli`).
 
-The gripper service itself (bus node) is not part of this package yet.
+The analysis, reproduction and benchmark command lines are their own modules:
+`python -m services.gripper.analysis_cli`, `.reproduce`, `.benchmark`.
 """
 
-import sys
+from services.gripper.cli import main
 
-from services.gripper.analysis_cli import main
-
-sys.exit(main())
+raise SystemExit(main())

@@ -53,6 +53,8 @@ __all__ = [
     "FailSafeParams",
     "FS_PRESETS",
     "ForceThresholdRelease",
+    "SlipGuardController",
+    "SlipGuardParams",
     "HumanInspiredController",
     "HumanInspiredParams",
     "TimedRelease",
@@ -486,6 +488,130 @@ class DisplacementRelease(_LatchedReleaseBaseline):
         return np.hypot(self.position_m[0], self.position_m[1]) >= self.displacement_threshold_m
 
 
+# --------------------------------------------------------------------------- slip-guarded (SG)
+
+
+@dataclass(frozen=True)
+class SlipGuardParams:
+    """Parameters of the slip-guarded load-share controller (SG), our own law.
+
+    Notation per episode, control step n of period T: W0 = F_sy of the first sample (the
+    object's weight as the wrist feels it), s = F_sy / W0 (share of the load still on the
+    gripper), v = (v_x, v_y) the optical slip velocity (y down), valid where the sensor
+    sees the object.
+
+        demand[n] = g[n] · F_hold · clip((s − s_rel) / (1 − s_rel), 0, s_cap),
+        F_hold    = c_hold · W0 + F_min
+        g[n+1]    = min(g[n] + k_g T |v| / v_th, g_max)    if valid, |v| > v_th and s > s_guard
+        catch:      demand = max(demand, g F_hold)          if valid, v_y > v_th and v_y > κ |v_x|
+        F_G[n+1]  = demand                                  if demand ≥ F_G[n]   (grip up at once)
+                  = F_G[n] + k_down (demand − F_G[n])       otherwise            (ease off smoothly)
+        F_G       = 0                                       once F_G < F_eps (then ≥ 0 N only on a catch)
+
+    In words: hold in proportion to the load the gripper still carries (like HI, but
+    scaled by the measured weight, not a fixed 15 N); release when the receiver carries
+    all but s_rel of it; whenever the object slides while the gripper still carries the
+    load (s > s_guard), raise the grip and *remember* it (g never decreases: the
+    friction the object needs was learned); and whenever the object moves down more
+    steeply than any receiver pull (v_y > κ |v_x|, κ = 1.5 ≈ 56° below horizontal), it is
+    falling, not being taken: grip at once, also after a release. The slip velocity, not
+    the acceleration, sees an object that slides at constant speed.
+
+    Attributes:
+        hold_per_weight: c_hold (1/μ the grip holds without adapting), dimensionless.
+        min_hold_force_n: F_min, N.
+        release_share: s_rel, load share at which the demand reaches zero.
+        share_cap: s_cap, largest share the demand follows (downward pulls), dimensionless.
+        guard_share: s_guard, the slip guard adapts g only above this load share.
+        slip_speed_threshold_m_s: v_th, m/s (one optical count per 10 ms ≈ 6.4 mm/s).
+        adapt_rate_per_s: k_g, 1/s (growth of g per second at |v| = v_th).
+        fall_steepness: κ, v_y > κ |v_x| counts as falling.
+        ease_off: k_down per control step (0 < k_down ≤ 1).
+        release_epsilon_n: F_eps, N.
+        max_grip_force_n: F_max, N (≤ 140 N).
+    """
+
+    hold_per_weight: float = 4.0
+    min_hold_force_n: float = 1.0
+    release_share: float = 0.3
+    share_cap: float = 3.0
+    guard_share: float = 0.8
+    slip_speed_threshold_m_s: float = 0.005
+    adapt_rate_per_s: float = 20.0
+    fall_steepness: float = 1.5
+    resist_per_force: float = 0.0
+    ease_off: float = 0.3
+    release_epsilon_n: float = 0.2
+    max_grip_force_n: float = ABSOLUTE_MAX_GRIP_FORCE_N
+
+    def __post_init__(self) -> None:
+        for name in ("hold_per_weight", "share_cap", "slip_speed_threshold_m_s", "ease_off"):
+            _check_finite(name, getattr(self, name), positive=True)
+        for name in ("min_hold_force_n", "guard_share", "adapt_rate_per_s", "fall_steepness", "resist_per_force",
+                     "release_epsilon_n"):
+            _check_finite(name, getattr(self, name), nonneg=True)
+        _check_finite("release_share", self.release_share, nonneg=True)
+        if not self.release_share < 1.0:
+            raise GripperError(f"release_share must be < 1, got {self.release_share}")
+        if self.ease_off > 1.0:
+            raise GripperError(f"ease_off must be in (0, 1], got {self.ease_off}")
+        _check_max_force(self.max_grip_force_n)
+
+
+class SlipGuardController(_BaseController):
+    """Slip-guarded load-share controller (SG), vectorised over episodes; see
+    `SlipGuardParams` for the law."""
+
+    def __init__(self, params: SlipGuardParams | None = None, period_s: float = DEFAULT_PERIOD_S,
+                 slip_accel_threshold_m_s2: float = DEFAULT_SLIP_ACCEL_THRESHOLD_M_S2) -> None:
+        super().__init__(period_s)
+        self.params = params or SlipGuardParams()
+        self.slip_accel_threshold_m_s2 = slip_accel_threshold_m_s2
+
+    def reset(self, n_episodes: int = 1) -> None:
+        self._reset_common(n_episodes)
+        self.grip_force_n = np.zeros(self.n_episodes)
+        self.gain = np.ones(self.n_episodes)
+        self.rest_load_n: np.ndarray | None = None
+
+    def step(self, sample: SensorSample) -> np.ndarray:
+        self._require_reset(sample)
+        p, n, dt = self.params, self.n_episodes, self.period_s
+        fx = _as_episodes(sample.force_x_n, n, "force_x_n")
+        fy = _as_episodes(sample.force_y_n, n, "force_y_n")
+        vx = _as_episodes(sample.slip_velocity_x_m_s, n, "slip_velocity_x_m_s")
+        vy = _as_episodes(sample.slip_velocity_y_m_s, n, "slip_velocity_y_m_s")
+        valid = np.broadcast_to(np.asarray(sample.optical_valid, dtype=bool), (n,))
+        if self.rest_load_n is None:
+            if np.any(fy <= 0.0):
+                raise GripperError(
+                    "SG controller: the first sample shows no downward load (F_sy <= 0); "
+                    "start it while the gripper holds the object"
+                )
+            self.rest_load_n = fy.copy()
+            hold = p.hold_per_weight * self.rest_load_n + p.min_hold_force_n
+            self.grip_force_n = np.minimum(hold, p.max_grip_force_n)
+        w0 = self.rest_load_n
+        hold = p.hold_per_weight * w0 + p.min_hold_force_n
+        share = fy / w0
+        speed = np.hypot(vx, vy)
+        slipping = valid & (speed > p.slip_speed_threshold_m_s)
+        adapt = slipping & (share > p.guard_share)
+        g_max = p.max_grip_force_n / hold
+        self.gain = np.where(adapt, np.minimum(self.gain + p.adapt_rate_per_s * dt * speed / p.slip_speed_threshold_m_s, g_max), self.gain)
+        level = np.clip((share - p.release_share) / (1.0 - p.release_share), 0.0, p.share_cap)
+        guarding = share > p.guard_share
+        resist = np.where(guarding, p.resist_per_force * np.hypot(fx, fy), 0.0)
+        demand = self.gain * np.maximum(hold * level, resist)
+        falling = valid & (vy > p.slip_speed_threshold_m_s) & (vy > p.fall_steepness * np.abs(vx))
+        demand = np.where(falling, np.maximum(demand, self.gain * hold), demand)
+        grip = np.where(demand >= self.grip_force_n, demand, self.grip_force_n + p.ease_off * (demand - self.grip_force_n))
+        grip = np.where(grip < p.release_epsilon_n, 0.0, grip)
+        self.grip_force_n = np.clip(grip, 0.0, p.max_grip_force_n)
+        self.mode = _estimate_mode(self.grip_force_n, sample, n, self.slip_accel_threshold_m_s2, p.slip_speed_threshold_m_s)
+        return self.grip_force_n.copy()
+
+
 # --------------------------------------------------------------------------- registry
 
 
@@ -515,6 +641,14 @@ def _hi_factory(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripControll
     return HumanInspiredController(params, period_s=period_s)
 
 
+def _sg_factory(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
+    try:
+        params = SlipGuardParams(**overrides)
+    except TypeError as exc:
+        raise GripperError(f"SG: unknown parameter ({exc}); see SlipGuardParams") from None
+    return SlipGuardController(params, period_s=period_s)
+
+
 def _kw_factory(cls) -> Callable[..., GripController]:
     def build(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
         try:
@@ -537,6 +671,7 @@ _REGISTRY: dict[str, _Entry] = {
     "displacement": _Entry(
         _kw_factory(DisplacementRelease), "baseline: impedance hand displaced ≥ 1 cm (Bohren et al.)"
     ),
+    "SG": _Entry(_sg_factory, "ours: slip-guarded load share (weight-scaled hold, slip-velocity guard and catch)"),
 }
 
 CONTROLLER_NAMES: tuple[str, ...] = tuple(_REGISTRY)

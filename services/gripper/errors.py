@@ -9,3 +9,10 @@ class GripperError(Exception):
 
     The message says what to check.
     """
+
+
+class GripperConfigError(GripperError):
+    """The gripper service's config (profile table or command line) is invalid; the message
+    names the key. `bad_input` tells the service runtime to exit with the bad-input code."""
+
+    bad_input = True

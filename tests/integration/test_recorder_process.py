@@ -26,7 +26,11 @@ def _publish_forces(node, n, period_s=0.005):
 
 
 def _rerun_verify(path):
-    exe = shutil.which("rerun")
+    import sys
+    from pathlib import Path
+
+    beside = Path(sys.executable).with_name("rerun")
+    exe = str(beside) if beside.exists() else shutil.which("rerun")
     if exe is None:
         pytest.skip("rerun CLI not on PATH")
     return subprocess.run([exe, "rrd", "verify", str(path)], capture_output=True, text=True, timeout=120)

@@ -1,0 +1,396 @@
+"""Monte-Carlo benchmark of the release controllers on the realistic contact plant.
+
+Every controller runs the SAME episodes (common random numbers: chunk i of seed s is drawn
+from `SeedSequence(s).spawn(...)[i]` whatever the controller), sampled by
+`services.gripper.episodes` over pull angle, friction, mass, receiver behaviour and timing,
+and sensor noise. Each episode is judged from ground truth by `robot_sim.contact.outcome`.
+
+Per controller:
+- drop rate over all episodes, with a 95 % Wilson interval (`scipy.stats.binomtest`);
+- release success: handed over (released, not dropped, receiver holds it) among the
+  *taking* episodes, with its 95 % interval;
+- force overshoot (largest receiver force before the release) over taking episodes:
+  median and p95, N;
+- release time: release − start of the receiver's grasp, median over handed-over taking
+  episodes, s;
+- mode chatter: mean number of ground-truth mode switches per episode;
+- the drop rate per receiver behaviour.
+
+Usage:
+    python -m services.gripper.benchmark                      # CI-sized: 200 episodes each
+    python -m services.gripper.benchmark -n 10000 --workers 2 --out out/gripper_bench
+    python -m services.gripper.benchmark --controllers FS1 HI SG -n 2000 --seed 7
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import logging
+import math
+import multiprocessing as mp
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from scipy import stats
+from tqdm import tqdm
+
+from robot_sim.contact.episode import run_vectorised
+from robot_sim.contact.outcome import BatchOutcome
+from services.gripper.controllers import CONTROLLER_NAMES, make_controller
+from services.gripper.episodes import BEHAVIOUR_NAMES, EpisodeDistribution, sample_chunk
+from services.gripper.errors import GripperError
+
+log = logging.getLogger(__name__)
+
+__all__ = ["BenchResult", "ControllerStats", "DEFAULT_CONTROLLERS", "run_benchmark", "summarise", "main"]
+
+DEFAULT_CONTROLLERS = ("FS1", "FS2", "FS3", "HI", "force-threshold", "displacement", "SG")
+#: Seed of the episodes the new controller was tuned on; evaluation seeds must differ.
+TUNING_SEED = 1000
+
+
+@dataclass
+class BenchResult:
+    """Per-controller outcomes over the same episodes, plus the episode draws."""
+
+    outcomes: dict[str, BatchOutcome]
+    mass_kg: np.ndarray
+    mu_static: np.ndarray
+    pull_angle_rad: np.ndarray
+    behaviour: np.ndarray
+    grasp_start_s: np.ndarray
+    seed: int
+    wall_time_s: float
+
+
+def _run_job(args) -> tuple[str, int, BatchOutcome, dict]:
+    name, index, seq, n, dist, overrides = args
+    # A fresh copy: `spawn` counts its children, and the same chunk seed serves every controller.
+    draw_seq, noise_seq = np.random.SeedSequence(seq.entropy, spawn_key=seq.spawn_key).spawn(2)
+    chunk = sample_chunk(dist, n, np.random.default_rng(draw_seq))
+    controller = make_controller(name, period_s=0.01, **overrides)
+    outcome = run_vectorised(chunk.config, chunk.receivers, controller, seed=noise_seq)
+    draws = dict(mass_kg=chunk.mass_kg, mu_static=chunk.mu_static, pull_angle_rad=chunk.pull_angle_rad,
+                 behaviour=chunk.behaviour, grasp_start_s=chunk.grasp_start_s)
+    return name, index, outcome, draws
+
+
+def run_benchmark(controllers: list[str], n_episodes: int, seed: int = 1, workers: int | None = None,
+                  chunk_size: int = 250, dist: EpisodeDistribution | None = None, progress: bool = True,
+                  overrides: dict[str, dict] | None = None) -> BenchResult:
+    """Run `n_episodes` episodes per controller (the same episodes for all)."""
+    if n_episodes < 1:
+        raise GripperError(f"need at least one episode per controller, got {n_episodes}")
+    if chunk_size < 1:
+        raise GripperError(f"chunk size must be >= 1, got {chunk_size}")
+    unknown = [c for c in controllers if c not in CONTROLLER_NAMES]
+    if unknown or not controllers:
+        raise GripperError(f"unknown controller(s) {unknown}; choose from: {', '.join(CONTROLLER_NAMES)}")
+    workers = (os.cpu_count() or 1) if workers is None else int(workers)
+    if workers < 1:
+        raise GripperError(f"workers must be >= 1, got {workers}")
+    dist = dist or EpisodeDistribution()
+    overrides = overrides or {}
+    sizes = [min(chunk_size, n_episodes - i) for i in range(0, n_episodes, chunk_size)]
+    seqs = np.random.SeedSequence(seed).spawn(len(sizes))
+    jobs = [(name, i, seqs[i], s, dist, overrides.get(name, {})) for name in controllers for i, s in enumerate(sizes)]
+    parts: dict[str, dict[int, BatchOutcome]] = {c: {} for c in controllers}
+    draws: dict[int, dict] = {}
+    t0 = time.perf_counter()
+    bar = tqdm(total=n_episodes * len(controllers), unit="ep", disable=not progress, desc="gripper benchmark")
+    try:
+        if workers == 1 or len(jobs) == 1:
+            results = map(_run_job, jobs)
+            for name, i, out, d in results:
+                parts[name][i] = out
+                draws[i] = d
+                bar.update(len(out))
+        else:
+            method = "fork" if "fork" in mp.get_all_start_methods() else "spawn"
+            with mp.get_context(method).Pool(processes=min(workers, len(jobs))) as pool:
+                for name, i, out, d in pool.imap_unordered(_run_job, jobs):
+                    parts[name][i] = out
+                    draws[i] = d
+                    bar.update(len(out))
+    finally:
+        bar.close()
+    wall = time.perf_counter() - t0
+    cat = lambda key: np.concatenate([draws[i][key] for i in range(len(sizes))])  # noqa: E731
+    outcomes = {c: BatchOutcome.concatenate([parts[c][i] for i in range(len(sizes))]) for c in controllers}
+    return BenchResult(outcomes=outcomes, mass_kg=cat("mass_kg"), mu_static=cat("mu_static"),
+                       pull_angle_rad=cat("pull_angle_rad"), behaviour=cat("behaviour"),
+                       grasp_start_s=cat("grasp_start_s"), seed=seed, wall_time_s=wall)
+
+
+# --------------------------------------------------------------------------- statistics
+
+
+def wilson_ci(successes: int, trials: int, level: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval of a proportion (scipy.stats.binomtest); (nan, nan) for 0 trials."""
+    if trials == 0:
+        return (math.nan, math.nan)
+    ci = stats.binomtest(int(successes), int(trials)).proportion_ci(confidence_level=level, method="wilson")
+    return (float(ci.low), float(ci.high))
+
+
+@dataclass(frozen=True)
+class ControllerStats:
+    """Benchmark figures of one controller (rates in [0, 1], forces in N, times in s)."""
+
+    controller: str
+    episodes: int
+    drops: int
+    drop_rate: float
+    drop_ci: tuple[float, float]
+    taking_episodes: int
+    release_success_rate: float
+    release_success_ci: tuple[float, float]
+    overshoot_median_n: float
+    overshoot_p95_n: float
+    release_time_median_s: float
+    mode_switches_mean: float
+    drop_rate_by_behaviour: dict[str, float]
+
+    def row(self) -> dict:
+        """Flat dict for CSV."""
+        d = {"controller": self.controller, "episodes": self.episodes, "drops": self.drops,
+             "drop_rate": self.drop_rate, "drop_ci_low": self.drop_ci[0], "drop_ci_high": self.drop_ci[1],
+             "taking_episodes": self.taking_episodes, "release_success_rate": self.release_success_rate,
+             "release_success_ci_low": self.release_success_ci[0],
+             "release_success_ci_high": self.release_success_ci[1],
+             "overshoot_median_n": self.overshoot_median_n, "overshoot_p95_n": self.overshoot_p95_n,
+             "release_time_median_s": self.release_time_median_s, "mode_switches_mean": self.mode_switches_mean}
+        d.update({f"drop_rate_{k}": v for k, v in self.drop_rate_by_behaviour.items()})
+        return d
+
+
+def _pct(a: np.ndarray, q: float) -> float:
+    return float(np.percentile(a, q)) if a.size else math.nan
+
+
+def controller_stats(name: str, outcome: BatchOutcome, behaviour: np.ndarray, grasp_start_s: np.ndarray,
+                     mask: np.ndarray | None = None) -> ControllerStats:
+    """Figures of one controller over the episodes selected by `mask` (all by default)."""
+    sel = np.ones(len(outcome), dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
+    dropped = outcome.dropped[sel]
+    beh = behaviour[sel]
+    take = beh == 0
+    handed = outcome.handed_over[sel][take]
+    over = outcome.force_overshoot_n[sel][take]
+    rel_t = (outcome.release_time_s[sel] - grasp_start_s[sel])[take & outcome.handed_over[sel]]
+    n = int(sel.sum())
+    by_beh = {}
+    for code, label in BEHAVIOUR_NAMES.items():
+        m = beh == code
+        by_beh[label] = float(dropped[m].mean()) if m.any() else math.nan
+    return ControllerStats(
+        controller=name, episodes=n, drops=int(dropped.sum()),
+        drop_rate=float(dropped.mean()) if n else math.nan, drop_ci=wilson_ci(int(dropped.sum()), n),
+        taking_episodes=int(take.sum()),
+        release_success_rate=float(handed.mean()) if handed.size else math.nan,
+        release_success_ci=wilson_ci(int(handed.sum()), int(handed.size)),
+        overshoot_median_n=_pct(over, 50), overshoot_p95_n=_pct(over, 95),
+        release_time_median_s=_pct(rel_t, 50),
+        mode_switches_mean=float(outcome.mode_switch_count[sel].mean()) if n else math.nan,
+        drop_rate_by_behaviour=by_beh,
+    )
+
+
+def summarise(result: BenchResult) -> list[ControllerStats]:
+    """Per-controller figures, in the order the controllers were run."""
+    return [controller_stats(name, out, result.behaviour, result.grasp_start_s) for name, out in result.outcomes.items()]
+
+
+def paired_drop_test(result: BenchResult, a: str, b: str) -> dict:
+    """McNemar's exact test on the same episodes: does `a` drop differently from `b`?
+
+    Returns the discordant counts (a drops where b holds, and the reverse) and the
+    two-sided p-value (binomial test on the discordant pairs)."""
+    da, db = result.outcomes[a].dropped, result.outcomes[b].dropped
+    only_a, only_b = int((da & ~db).sum()), int((~da & db).sum())
+    p = stats.binomtest(only_a, only_a + only_b).pvalue if only_a + only_b else 1.0
+    return {"a": a, "b": b, "only_a_drops": only_a, "only_b_drops": only_b, "p_value": float(p)}
+
+
+# --------------------------------------------------------------------------- reports
+
+
+def _f(v: float, digits: int = 2) -> str:
+    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
+
+
+def markdown_table(rows: list[ControllerStats]) -> str:
+    """The headline table (rates in %)."""
+    head = ("| controller | drop rate % [95% CI] | release success % (taking) [95% CI] | overshoot median / p95 N "
+            "| release time median s | mode switches / ep | drops: taking / dropping / hesitating / bumping % |")
+    lines = [head, "|" + "---|" * 7]
+    for s in rows:
+        b = s.drop_rate_by_behaviour
+        lines.append(
+            f"| {s.controller} | {100 * s.drop_rate:.1f} [{100 * s.drop_ci[0]:.1f}, {100 * s.drop_ci[1]:.1f}] "
+            f"| {100 * s.release_success_rate:.1f} [{100 * s.release_success_ci[0]:.1f}, "
+            f"{100 * s.release_success_ci[1]:.1f}] | {_f(s.overshoot_median_n)} / {_f(s.overshoot_p95_n)} "
+            f"| {_f(s.release_time_median_s, 3)} | {_f(s.mode_switches_mean)} "
+            f"| {' / '.join(_f(100 * b[k], 1) for k in ('taking', 'dropping', 'hesitating', 'bumping'))} |")
+    return "\n".join(lines)
+
+
+def write_csv(rows: list[ControllerStats], path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    dicts = [r.row() for r in rows]
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(dicts[0]))
+        writer.writeheader()
+        writer.writerows(dicts)
+    return path
+
+
+def _binned_drop(result: BenchResult, name: str, values: np.ndarray, edges: np.ndarray):
+    idx = np.clip(np.digitize(values, edges) - 1, 0, len(edges) - 2)
+    d = result.outcomes[name].dropped
+    rate = np.array([d[idx == i].mean() if np.any(idx == i) else np.nan for i in range(len(edges) - 1)])
+    return 0.5 * (edges[:-1] + edges[1:]), rate
+
+
+def write_plots(result: BenchResult, rows: list[ControllerStats], out_dir: Path, prefix: str = "gripper_bench") -> list[Path]:
+    """Drop rate with CIs per controller; drop rate vs mass, friction and pull angle;
+    overshoot distributions (taking episodes)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths = []
+    names = [r.controller for r in rows]
+    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
+    x = np.arange(len(rows))
+    for k, (attr, ci, title) in enumerate((("drop_rate", "drop_ci", "drop rate (all episodes)"),
+                                            ("release_success_rate", "release_success_ci",
+                                             "release success (taking episodes)"))):
+        val = np.array([100 * getattr(r, attr) for r in rows])
+        lo = np.array([100 * getattr(r, ci)[0] for r in rows])
+        hi = np.array([100 * getattr(r, ci)[1] for r in rows])
+        ax[k].bar(x, val, color="#6a8fc8")
+        ax[k].errorbar(x, val, yerr=[val - lo, hi - val], fmt="none", ecolor="k", capsize=4)
+        ax[k].set_xticks(x, names, rotation=30, ha="right")
+        ax[k].set_ylabel("%")
+        ax[k].set_title(f"{title}, 95 % Wilson CI")
+    fig.suptitle(f"{rows[0].episodes} episodes per controller, seed {result.seed}")
+    fig.tight_layout()
+    p = out_dir / f"{prefix}_rates.png"
+    fig.savefig(p, dpi=110)
+    plt.close(fig)
+    paths.append(p)
+
+    fig, ax = plt.subplots(1, 3, figsize=(14, 4), sharey=True)
+    for name in names:
+        for k, (vals, edges, label) in enumerate((
+                (result.mass_kg, np.linspace(0.05, 0.6, 12), "object mass, kg"),
+                (result.mu_static, np.linspace(0.2, 0.9, 8), "μ_s"),
+                (np.degrees(result.pull_angle_rad), np.linspace(-45, 45, 10), "pull angle φ, ° (> 0 down)"))):
+            c, r = _binned_drop(result, name, vals, edges)
+            ax[k].plot(c, 100 * r, marker="o", label=name)
+            ax[k].set_xlabel(label)
+    ax[0].set_ylabel("drop rate, %")
+    ax[2].legend(fontsize=8)
+    fig.suptitle("where the controllers drop objects (all behaviours)")
+    fig.tight_layout()
+    p = out_dir / f"{prefix}_drop_vs_params.png"
+    fig.savefig(p, dpi=110)
+    plt.close(fig)
+    paths.append(p)
+
+    fig, ax = plt.subplots(figsize=(8, 4))
+    take = result.behaviour == 0
+    data = [result.outcomes[n].force_overshoot_n[take] for n in names]
+    ax.boxplot(data, whis=(5, 95), showfliers=False)
+    ax.set_xticks(np.arange(1, len(names) + 1), names, rotation=30, ha="right")
+    ax.set_ylabel("force overshoot, N")
+    ax.set_title("receiver force before release (taking episodes; whiskers p5–p95)")
+    fig.tight_layout()
+    p = out_dir / f"{prefix}_overshoot.png"
+    fig.savefig(p, dpi=110)
+    plt.close(fig)
+    paths.append(p)
+    return paths
+
+
+# --------------------------------------------------------------------------- CLI
+
+
+def _positive_int(text: str) -> int:
+    v = int(text)
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be a positive integer")
+    return v
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="handover-bench",
+        description="Monte-Carlo benchmark of the gripper release controllers on the realistic contact plant.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--controllers", nargs="+", default=list(DEFAULT_CONTROLLERS), metavar="NAME",
+                   help=f"controllers to compare (known: {', '.join(CONTROLLER_NAMES)})")
+    p.add_argument("-n", "--episodes", type=_positive_int, default=200, help="episodes per controller")
+    p.add_argument("--seed", type=int, default=1,
+                   help=f"episode seed (the SG controller was tuned on seed {TUNING_SEED}: evaluate on others)")
+    p.add_argument("--workers", type=_positive_int, default=None, help="processes (default: all cores)")
+    p.add_argument("--chunk-size", type=_positive_int, default=250, help="episodes per vectorised chunk")
+    p.add_argument("--out", type=Path, default=Path("out/gripper_bench"), help="folder for table.md, results.csv, plots")
+    p.add_argument("--img-dir", type=Path, default=None, help="also write the plots here (e.g. docs/img)")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--log-level", default="warning", choices=["debug", "info", "warning", "error"])
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of `handover-bench`; returns the exit code (2 on bad input)."""
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
+    try:
+        result = run_benchmark(args.controllers, args.episodes, seed=args.seed, workers=args.workers,
+                               chunk_size=args.chunk_size, progress=not args.no_progress)
+    except GripperError as exc:
+        print(f"handover-bench: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("handover-bench: interrupted", file=sys.stderr)
+        return 130
+    rows = summarise(result)
+    table = markdown_table(rows)
+    print(f"\n{args.episodes} episodes per controller, seed {args.seed}, {result.wall_time_s:.1f} s\n")
+    print(table)
+    tests = []
+    if "SG" in result.outcomes:
+        for other in result.outcomes:
+            if other != "SG":
+                t = paired_drop_test(result, "SG", other)
+                tests.append(t)
+                print(f"paired drops SG vs {other}: SG-only {t['only_a_drops']}, {other}-only {t['only_b_drops']}, "
+                      f"McNemar exact p = {t['p_value']:.2g}")
+    args.out.mkdir(parents=True, exist_ok=True)
+    (args.out / "table.md").write_text(table + "\n")
+    print(f"\nwrote {args.out / 'table.md'}")
+    print(f"wrote {write_csv(rows, args.out / 'results.csv')}")
+    if tests:
+        with (args.out / "paired.csv").open("w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(tests[0]))
+            w.writeheader()
+            w.writerows(tests)
+    if not args.no_plots:
+        for d in {args.out, args.img_dir} - {None}:
+            for path in write_plots(result, rows, d):
+                print(f"wrote {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,94 @@
+"""The gripper service as a real process on a loopback bus, fed by a test-side publisher of
+synthetic wrist-wrench and object-motion messages."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from bus_schema import topics
+from services.runtime.testing import ServiceProcess, wait_alive, wait_until
+
+pytestmark = pytest.mark.integration
+W = 0.23 * 9.81
+REST_FS1_N = 10 * W - 15  # α F_sy − F_margin: FS1's fixed point at rest
+
+
+@pytest.fixture
+def gripper(bus):
+    profile, router = bus
+    with ServiceProcess("services.gripper", profile, args=["--controller", "FS1", "--rate-hz", "100"]) as proc:
+        wait_alive(router, profile, {"gripper"})
+        yield proc
+
+
+def _stream(wrench, motion, seconds, fx=0.0, fy=W, rate_hz=100.0):
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        wrench.put(force_n=(fx, fy, 0.0))
+        motion.put(displacement_counts=(0, 0), counts_per_m=15748.0, dt_s=1.0 / rate_hz)
+        time.sleep(1.0 / rate_hz)
+    return time.monotonic()
+
+
+def test_holds_without_sensors_then_follows_fs1_then_releases_once(gripper, make_node):
+    node = make_node()
+    states = node.subscribe(topics.GRIPPER_STATE, queue_size=2000)
+    commands = node.subscribe(topics.GRIPPER_COMMAND, queue_size=2000)
+    releases = node.subscribe(topics.GRIPPER_RELEASE)
+    wrench, motion = node.publisher(topics.WRIST_WRENCH), node.publisher(topics.OBJECT_MOTION)
+    assert wait_until(lambda: states.latest() is not None, 5.0)
+    s = states.latest().msg
+    assert s.mode == "hold" and not s.sensors_fresh and "never received" in s.reason
+    assert commands.latest().msg.grip_force_n >= 10.0  # the hold floor: never open without data
+
+    _stream(wrench, motion, 0.5)
+    c = commands.latest().msg
+    assert c.mode == "grasp" and c.grip_force_n == pytest.approx(REST_FS1_N, abs=1e-6)
+    assert c.position_m == pytest.approx(REST_FS1_N / 500.0, abs=1e-9)  # eq 3.21, k = 5 N/cm
+    assert releases.latest() is None
+
+    _stream(wrench, motion, 0.6, fx=4.0, fy=0.3)  # the receiver takes the weight and pulls
+    assert wait_until(lambda: releases.latest() is not None, 2.0)
+    _stream(wrench, motion, 0.3, fx=0.0, fy=W)  # the load comes back: latched open
+    assert len(releases.drain()) == 1
+    assert releases.latest().msg.controller == "FS1"
+    assert commands.latest().msg.grip_force_n == 0.0
+    assert states.latest().msg.released
+
+
+def test_silent_sensors_hold_and_never_open(gripper, make_node):
+    node = make_node()
+    states = node.subscribe(topics.GRIPPER_STATE, queue_size=5000)
+    commands = node.subscribe(topics.GRIPPER_COMMAND, queue_size=5000)
+    wrench, motion = node.publisher(topics.WRIST_WRENCH), node.publisher(topics.OBJECT_MOTION)
+    assert wait_until(lambda: states.latest() is not None, 5.0)
+    _stream(wrench, motion, 0.4)
+    _stream(wrench, motion, 0.1, fx=2.0)  # pulled a little: FS1 eases off
+    last_s = time.monotonic()
+    last_cmd = commands.latest().msg.grip_force_n
+    time.sleep(0.4)
+    after = [r for r in commands.drain() if r.rx_monotonic > last_s]
+    held = [r for r in after if r.msg.mode == "hold"]
+    assert held, "no hold after the sensors went silent"
+    assert held[0].rx_monotonic - last_s < 0.05 + 0.02 + 0.03  # timeout + one tick + transport
+    assert min(r.msg.grip_force_n for r in held) >= min(last_cmd, 10.0) and all(
+        r.msg.grip_force_n >= last_cmd for r in held)
+    assert "stale" in states.latest().msg.reason and not states.latest().msg.sensors_fresh
+
+
+def test_undecodable_payloads_hold_and_are_reported(gripper, make_node):
+    node = make_node()
+    states = node.subscribe(topics.GRIPPER_STATE, queue_size=2000)
+    wrench, motion = node.publisher(topics.WRIST_WRENCH), node.publisher(topics.OBJECT_MOTION)
+    _stream(wrench, motion, 0.3)
+    end = time.monotonic() + 0.4
+    while time.monotonic() < end:
+        wrench.put_raw(b"\xff\x00garbage")
+        motion.put(displacement_counts=(0, 0), counts_per_m=15748.0, dt_s=0.01)
+        time.sleep(0.01)
+    s = states.latest().msg
+    assert s.mode == "hold" and "undecodable" in s.reason
+    _stream(wrench, motion, 0.3)  # good data again: the service goes on
+    assert states.latest().msg.mode == "grasp" and gripper.proc.poll() is None

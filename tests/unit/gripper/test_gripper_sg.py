@@ -1,0 +1,88 @@
+"""The slip-guarded load-share controller (SG) against hand-computed steps."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from services.gripper.controllers import SlipGuardController, SlipGuardParams, make_controller
+from services.gripper.errors import GripperError
+from tests.unit.gripper.helpers import sample
+
+
+def sg(**kw) -> SlipGuardController:
+    c = make_controller("SG", **kw)
+    c.reset(1)
+    return c
+
+
+def test_hold_scales_with_the_measured_weight_and_follows_the_load_share():
+    c = sg()
+    assert c.step(sample(fy=2.0))[0] == pytest.approx(4 * 2.0 + 1.0)  # c_hold W0 + F_min
+    # share 0.65: level (0.65 − 0.3)/0.7 = 0.5, demand 4.5; easing off: 9 + 0.3 (4.5 − 9)
+    assert c.step(sample(fy=1.3))[0] == pytest.approx(7.65)
+    assert c.mode[0] == 0  # grasp
+
+
+def test_slip_while_loaded_raises_the_grip_at_once_and_remembers_it():
+    c = sg()
+    c.step(sample(fy=2.0))
+    # |v| = 10 mm/s = 2 v_th: g = 1 + 20 · 0.01 · 2 = 1.4; demand 1.4 · 9 = 12.6, applied at once
+    assert c.step(sample(fy=2.0, vx=0.01))[0] == pytest.approx(12.6)
+    assert c.mode[0] == 1  # slip
+    assert c.step(sample(fy=2.0))[0] == pytest.approx(12.6)  # the slip stopped: g is kept
+    assert c.gain[0] == pytest.approx(1.4)
+
+
+def test_no_adaptation_once_the_receiver_carries_the_load():
+    c = sg()
+    c.step(sample(fy=2.0))
+    c.step(sample(fy=1.0, vx=0.05))  # share 0.5 < s_guard 0.8: the receiver is taking it
+    assert c.gain[0] == 1.0
+
+
+def test_releases_when_the_load_is_taken_and_catches_a_falling_object():
+    c = sg()
+    c.step(sample(fy=2.0))
+    grip, expected = [], 9.0
+    for _ in range(20):
+        grip.append(c.step(sample(fy=0.4))[0])  # share 0.2 < s_rel: demand 0
+    for g in grip:
+        expected = expected * 0.7
+        if expected < 0.2:
+            expected = 0.0
+        assert g == pytest.approx(expected)
+    assert grip[-1] == 0.0 and c.mode[0] == 2  # release
+    # the object moves sideways with the receiver: no catch
+    assert c.step(sample(fy=0.0, vx=0.03, vy=0.02))[0] == 0.0
+    # it falls (v_y > 1.5 |v_x|): grip at once with the full hold
+    assert c.step(sample(fy=0.0, vx=0.01, vy=0.03))[0] == pytest.approx(9.0)
+
+
+def test_clamped_to_the_force_limit_and_needs_a_load_to_start():
+    c = sg()
+    assert c.step(sample(fy=50.0))[0] == 140.0
+    c = sg()
+    with pytest.raises(GripperError, match="no downward load"):
+        c.step(sample(fy=0.0))
+    with pytest.raises(GripperError):
+        SlipGuardParams(release_share=1.0)
+    with pytest.raises(GripperError):
+        make_controller("SG", colour=1.0)
+
+
+def test_vectorised_equals_one_episode_at_a_time():
+    rng = np.random.default_rng(3)
+    n, steps = 6, 60
+    fy = np.abs(rng.normal(2.0, 1.0, (steps, n))) + 0.05
+    fx = rng.normal(0.0, 2.0, (steps, n))
+    vx = rng.choice([0.0, 0.006, 0.02], (steps, n))
+    vy = rng.choice([0.0, 0.006, -0.01, 0.03], (steps, n))
+    batch = make_controller("SG")
+    batch.reset(n)
+    out = np.array([batch.step(sample(fx=fx[k], fy=fy[k], vx=vx[k], vy=vy[k])) for k in range(steps)])
+    for i in range(n):
+        one = make_controller("SG")
+        one.reset(1)
+        single = [one.step(sample(fx=fx[k, i], fy=fy[k, i], vx=vx[k, i], vy=vy[k, i]))[0] for k in range(steps)]
+        np.testing.assert_allclose(out[:, i], single, rtol=0, atol=1e-12)
