@@ -491,6 +491,9 @@ class SimTruth(Message, frozen=True, kw_only=True):
         receiver_pull_n: receiver's pull on the object along x, N.
         tool_position_m: true gripper position in the `base` frame.
         tool_speed_m_s: true gripper speed, m/s.
+        kinect_hand_truth_m: true position of the receiving (right) hand of the receiver's
+            body seen by the simulated Kinect, `base` frame (None when the Kinect is off).
+        kinect_torso_truth_m: true torso position of that body (None when the Kinect is off).
     """
 
     object_position_m: Vec3M = (0.0, 0.0, 0.0)
@@ -503,6 +506,8 @@ class SimTruth(Message, frozen=True, kw_only=True):
     receiver_pull_n: ForceN = 0.0
     tool_position_m: Vec3M = (0.0, 0.0, 0.0)
     tool_speed_m_s: SpeedMS = 0.0
+    kinect_hand_truth_m: Vec3M | None = None
+    kinect_torso_truth_m: Vec3M | None = None
 
 
 __all__ = [

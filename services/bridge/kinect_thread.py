@@ -42,7 +42,18 @@ class KinectThread:
         self._q_arm: np.ndarray | None = None
         self._errors = RateLimitedLog(log, 5.0)
         self.frames = 0
+        self._truth: dict[str, tuple[float, float, float]] = {}
+        self._truth_pub = None
         self._thread = threading.Thread(target=self._run, name="kinect", daemon=True)
+
+    def publish_own_truth(self, node: Any) -> None:
+        """Publish `sim/truth` from this thread (when no contact plant publishes it)."""
+        self._truth_pub = node.publisher(topics.SIM_TRUTH)
+
+    def truth_fields(self) -> dict[str, tuple[float, float, float]]:
+        """The latest frame's ground truth as `SimTruth` fields (empty before the first)."""
+        with self._lock:
+            return dict(self._truth)
 
     def update_arm(self, q_rad: np.ndarray) -> None:
         """Hand over the arm's latest joint positions (called by the 100 Hz loop)."""
@@ -68,6 +79,16 @@ class KinectThread:
                     self._skeleton.put(**frame.skeleton_fields)
                     self._depth.put(**frame.depth_fields)
                     self.frames += 1
+                    truth = {
+                        "kinect_hand_truth_m": tuple(np.clip(frame.truth.right_hand_m, -100, 100).tolist()),
+                        "kinect_torso_truth_m": tuple(np.clip(frame.truth.joints_m["torso"], -100, 100).tolist()),
+                    }
+                    with self._lock:
+                        self._truth = truth
+                    if self._truth_pub is not None:
+                        self._truth_pub.put(held_by="gripper",
+                                            tool_position_m=tuple(frame.truth.robot_tool_m.tolist()),
+                                            **truth)
                 except Exception as exc:  # a bad frame must not kill the bridge
                     self._errors.warning("kinect", f"simulated Kinect frame failed: {exc!r}")
             next_frame += self.period_s

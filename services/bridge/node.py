@@ -40,6 +40,8 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
         extra_pubs: dict[str, Any] = {}
 
         def publish_extra(suffix: str, fields: dict[str, Any]) -> None:
+            if suffix == topics.SIM_TRUTH.suffix and kinect is not None:
+                fields = {**fields, **kinect.truth_fields()}
             pub = extra_pubs.get(suffix)
             if pub is None:
                 pub = extra_pubs[suffix] = node.publisher(topics.TOPICS_BY_SUFFIX[suffix])
@@ -50,6 +52,8 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
             from services.bridge.kinect_thread import KinectThread
 
             kinect = KinectThread(config.kinect, node)
+            if not config.contact.enabled:  # nobody else publishes sim/truth
+                kinect.publish_own_truth(node)
             kinect.update_arm(backend.read().position_rad)
             kinect.start()
         log.info("bridge running", extra=kv(backend=backend.name, rate_hz=config.rate_hz,
