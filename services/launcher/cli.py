@@ -8,7 +8,7 @@ from pathlib import Path
 
 from services.launcher.node import JOBS, LaunchOptions, Launcher, LauncherError
 from services.runtime import base_parser, load_profile_file, run_main
-from services.runtime.testing import free_tcp_port
+from services.runtime.profile import free_tcp_port
 
 
 def _prefix_own_logs() -> None:

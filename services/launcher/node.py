@@ -74,8 +74,7 @@ class Launcher:
         self.specs = start_order(profile.services)
         if not self.specs:
             raise LauncherError(f"profile {profile.path} enables no service")
-        self.width = max(len(s.name) for s in self.specs + []) if self.specs else 8
-        self.width = max(self.width, len("launcher"))
+        self.width = max(len("launcher"), *(len(s.name) for s in self.specs))
         self.children: dict[str, Child] = {}
         self.restarts: dict[str, int] = {s.name: 0 for s in self.specs}
         self.recording: Path | None = None
@@ -142,7 +141,7 @@ class Launcher:
             for name in sorted(missing):
                 code = self.children[name].poll() if name in self.children else None
                 if code is not None:
-                    raise LauncherError(f"{name} {describe_exit(code)} before it came up (see its [${name}] output above)".replace("$", ""))
+                    raise LauncherError(f"{name} {describe_exit(code)} before it came up (see its [{name}] output above)")
             if self.stop_requested.is_set():
                 raise KeyboardInterrupt
             if time.monotonic() > deadline:

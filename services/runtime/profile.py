@@ -114,6 +114,15 @@ class Profile:
         return new
 
 
+def free_tcp_port() -> int:
+    """A TCP port on 127.0.0.1 that was free a moment ago (for `--port auto` and tests)."""
+    import socket
+
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
 def resolve_profile_path(profile: str | Path) -> Path:
     """A profile name (``sim``) or a path to a TOML file, as an existing path."""
     candidate = Path(profile)

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -19,14 +18,7 @@ import zenoh
 
 from services.runtime.liveliness import alive_services
 from services.runtime.node import open_session
-from services.runtime.profile import Profile, load_profile_file
-
-
-def free_tcp_port() -> int:
-    """A TCP port on 127.0.0.1 that was free a moment ago."""
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
-        sock.bind(("127.0.0.1", 0))
-        return int(sock.getsockname()[1])
+from services.runtime.profile import Profile, free_tcp_port, load_profile_file
 
 
 def loopback_profile(port: int | None = None, profile: str = "sim") -> Profile:
