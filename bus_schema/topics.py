@@ -55,7 +55,7 @@ SKELETON = _T("perception/skeleton", m.Skeleton, "state", 30, "bridge", "15-join
 DEPTH = _T("perception/depth", m.DepthImage, "state", 30, "bridge", "depth image")
 HUMAN = _T("perception/human", m.HumanState, "state", 30, "tracker", "corrected receiver state")
 OBJECT = _T("perception/object", m.ObjectEstimate, "state", 30, "tracker", "object on the table")
-TRANSFER = _T("planner/transfer", m.TransferTarget, "state", 0, "planner", "DJT transfer point")
+TRANSFER = _T("planner/transfer", m.TransferTarget, "state", 5, "planner", "DJT transfer point")
 MOTION_GOAL = _T("motion/goal", m.MotionGoal, "safety", 0, "supervisor", "motion goals")
 MOTION_STATUS = _T("motion/status", m.MotionStatus, "state", 50, "motion", "motion progress")
 MOTION_STOP = _T("motion/stop", m.MotionStop, "safety", 0, "supervisor", "release/protective stop")
@@ -63,6 +63,8 @@ GRIPPER_COMMAND = _T("gripper/command", m.GripperCommand, "safety", 100, "grippe
 GRIPPER_STATE = _T("gripper/state", m.GripperState, "state", 100, "gripper", "gripper mode and force")
 GRIPPER_RELEASE = _T("gripper/release", m.ReleaseEvent, "safety", 0, "gripper", "release event")
 SUPERVISOR_STATE = _T("supervisor/state", m.SupervisorState, "state", 10, "supervisor", "handover phase")
+EPISODE = _T("supervisor/episode", m.EpisodeSummary, "state", 0, "supervisor", "episode summary")
+HEARTBEAT = _T("runtime/heartbeat", m.Heartbeat, "state", 20, "every service", "main loop running")
 SIM_TRUTH = _T("sim/truth", m.SimTruth, "state", 100, "bridge", "simulator ground truth")
 del _T
 
@@ -83,6 +85,8 @@ TOPICS: tuple[Topic, ...] = (
     GRIPPER_STATE,
     GRIPPER_RELEASE,
     SUPERVISOR_STATE,
+    EPISODE,
+    HEARTBEAT,
     SIM_TRUTH,
 )
 TOPICS_BY_SUFFIX: dict[str, Topic] = {t.suffix: t for t in TOPICS}

@@ -53,7 +53,15 @@ def sample(topic: Topic) -> m.Message:
     if t is m.ReleaseEvent:
         return t(**H, grip_force_n=0.0, pull_force_n=3.2, controller="FS1")
     if t is m.SupervisorState:
-        return t(**H, phase="transfer", episode_id=3, reason="reached", elapsed_s=0.8)
+        return t(**H, phase="transfer", episode_id=3, reason="reached", elapsed_s=0.8, grip_request="transfer")
+    if t is m.EpisodeSummary:
+        return t(**H, episode_id=3, outcome="released", reason="released to the receiver",
+                 transfer_point_base_m=(0.6, -0.26, 0.1), receiver_posture="standing",
+                 phase_durations_s={"reach": 1.2, "transfer": 0.9}, peak_grip_force_n=11.0,
+                 force_overshoot_n=1.0, release_to_stop_s=0.012, replans=1,
+                 faults=["recorder: liveliness lost"])
+    if t is m.Heartbeat:
+        return t(**H, uptime_s=12.5, beats=250)
     if t is m.SimTruth:
         return t(**H, object_position_m=(0.6, -0.26, 0.1), object_velocity_m_s=(0.0, 0.0, -0.1),
                  held_by="both", dropped=False, slip_m=0.002, grip_force_n=10.0,

@@ -152,22 +152,7 @@ class ContactPlant:
         self._grip_snr = None if c.sensors.grip_noise_snr_db is None else 10.0 ** (c.sensors.grip_noise_snr_db / 10.0)
         self._grip_ms_sum = xp.full(self.n, 0.0)
         self._grip_ms_n = 0
-        # Receiver constants.
-        p = receiver
-        if vectorised:
-            self._ux, self._uy = np.cos(p.pull_angle_rad), np.sin(p.pull_angle_rad)
-            self._c_full = p.coupling == Coupling.FULL
-            self._c_along = p.coupling == Coupling.ALONG_PULL
-            self._c_contact = p.coupling == Coupling.CONTACT
-            self._strength = np.asarray(p.grasp_strength_n, dtype=float)
-        else:
-            self._ux, self._uy = float(np.cos(p.pull_angle_rad)), float(np.sin(p.pull_angle_rad))
-            self._c_full = int(p.coupling) == Coupling.FULL
-            self._c_along = int(p.coupling) == Coupling.ALONG_PULL
-            self._c_contact = int(p.coupling) == Coupling.CONTACT
-            self._strength = float(p.grasp_strength_n)
-        self._ref_cache: list = []
-        self._ref_base = 0
+        self._set_receiver_constants(receiver)
         hand = c.hand
         self._constants = (c.dt_s, o.mass_kg, o.weight_n, o.mu_static, o.mu_kinetic,
                            hand.grasp_stiffness_n_per_m, hand.grasp_damping_n_s_per_m,
@@ -179,7 +164,7 @@ class ContactPlant:
         z = xp.full(self.n, 0.0)
         self.px, self.py, self.vx, self.vy = z, z, z, z
         self.ax, self.ay = z, z
-        r0 = reference(0.0, p)
+        r0 = reference(0.0, receiver)
         self.hx = xp.asarray(r0[0]) if vectorised else float(r0[0])
         self.hy = xp.asarray(r0[1]) if vectorised else float(r0[1])
         self.hvx, self.hvy = z, z
@@ -197,6 +182,35 @@ class ContactPlant:
         self.ft.sample(self.wrist_x, self.wrist_y)
         self.ft_fresh = True
         self.optical_fresh = True
+
+    def _set_receiver_constants(self, p: ReceiverParams) -> None:
+        self.receiver = p
+        if self.vectorised:
+            self._ux, self._uy = np.cos(p.pull_angle_rad), np.sin(p.pull_angle_rad)
+            self._c_full = p.coupling == Coupling.FULL
+            self._c_along = p.coupling == Coupling.ALONG_PULL
+            self._c_contact = p.coupling == Coupling.CONTACT
+            self._strength = np.asarray(p.grasp_strength_n, dtype=float)
+        else:
+            self._ux, self._uy = float(np.cos(p.pull_angle_rad)), float(np.sin(p.pull_angle_rad))
+            self._c_full = int(p.coupling) == Coupling.FULL
+            self._c_along = int(p.coupling) == Coupling.ALONG_PULL
+            self._c_contact = int(p.coupling) == Coupling.CONTACT
+            self._strength = float(p.grasp_strength_n)
+        self._ref_cache = []
+        self._ref_base = 0
+
+    def replace_receiver(self, receiver: ReceiverParams) -> None:
+        """Swap the receiver behaviour mid-run (one episode only), e.g. when the receiver's
+        hand arrives at the object during a full handover. The new behaviour's times are on
+        this plant's clock (`time_s`); the hand is placed at the new reference at the current
+        time, at rest. The object, pads, actuator and sensors keep their state."""
+        if self.vectorised or receiver.n_episodes != 1:
+            raise ContactSimError("replace_receiver works on a single-episode plant with one behaviour")
+        self._set_receiver_constants(receiver)
+        r = reference(self.time_s, receiver)
+        self.hx, self.hy = float(r[0]), float(r[1])
+        self.hvx, self.hvy = 0.0, 0.0
 
     # ------------------------------------------------------------------ helpers
     @property

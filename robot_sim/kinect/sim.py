@@ -180,6 +180,7 @@ class KinectSim:
         t_s: float,
         q_arm_rad: np.ndarray,
         object_position_m: np.ndarray | None = None,
+        right_hand_m: np.ndarray | None = None,
     ) -> KinectFrame:
         """Render the frame at time `t_s` (s, increasing).
 
@@ -187,8 +188,11 @@ class KinectSim:
             q_arm_rad: Baxter right-arm joints (7,), rad.
             object_position_m: object centre (m, `base`); default: waiting on the table at
                 `robot_sim.scene.OBJECT_PICK_BASE_M`.
+            right_hand_m: where the receiver's right hand is (m, `base`), when another model
+                (the handover scene) drives it; default: this simulator's own reach.
         """
-        joints = self.body.joints(self.true_hand(t_s))
+        hand = self.true_hand(t_s) if right_hand_m is None else np.asarray(right_hand_m, float)
+        joints = self.body.joints(hand)
         self._last_hand = joints["right_hand"].copy()
         joints_arr = np.stack([joints[n] for n in SKELETON_JOINTS])
         tool = self.arm.tool_position(q_arm_rad)

@@ -103,11 +103,23 @@ class SimBackend:
         return None
 
 
-def make_backend(name: str, contact: Any = None, **kwargs: Any) -> Backend:
-    """Backend by name (``sim``); with `contact` enabled, the sim runs the contact plant."""
+def make_backend(name: str, contact: Any = None, kinect: Any = None, **kwargs: Any) -> Backend:
+    """Backend by name (``sim``); with `contact` enabled, the sim runs the contact plant
+    (``transfer`` scenario) or the whole handover scene (``handover``, with the receiver's
+    body from `kinect`)."""
     from services.bridge.errors import BridgeConfigError
 
     if name == "sim":
+        if contact is not None and contact.enabled and contact.scenario == "handover":
+            from robot_sim.handover_scene import SceneParams
+            from services.bridge.handover_backend import HandoverSimBackend
+
+            body = {} if kinect is None else {"height_m": kinect.height_m, "posture": kinect.posture}
+            params = SceneParams(behaviour=contact.behaviour, receiver=dict(contact.receiver),
+                                 pull_angle_deg=contact.pull_angle_deg, object_mass_kg=contact.object_mass_kg,
+                                 mu_static=contact.mu_static, mu_kinetic=contact.mu_kinetic, seed=contact.seed,
+                                 **body)
+            return HandoverSimBackend(params, **kwargs)
         if contact is not None and contact.enabled:
             from services.bridge.contact_backend import ContactSimBackend
 
@@ -117,4 +129,14 @@ def make_backend(name: str, contact: Any = None, **kwargs: Any) -> Backend:
                 mu_kinetic=contact.mu_kinetic, initial_grip_force_n=contact.initial_grip_force_n,
                 seed=contact.seed, receiver=dict(contact.receiver), **kwargs)
         return SimBackend(**kwargs)
-    raise BridgeConfigError(f"unknown bridge backend {name!r} (known: sim)")
+    if name == "baxter":
+        # The real robot: needs the profile (its router carries the ROS 1 topics) and the
+        # [services.bridge.config.baxter] table; the sim-only keyword arguments do not apply.
+        from services.bridge.baxter.backend import BaxterBackend
+
+        if kwargs.get("profile") is None:
+            raise BridgeConfigError("the baxter backend needs the deploy profile: run it with "
+                                    "`python -m services.bridge.baxter` (see docs/baxter.md)")
+        return BaxterBackend(kwargs["profile"], kwargs.get("baxter"), dry_run=bool(kwargs.get("dry_run", False)),
+                             dry_run_sink=kwargs.get("dry_run_sink"))
+    raise BridgeConfigError(f"unknown bridge backend {name!r} (known: sim, baxter)")

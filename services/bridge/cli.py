@@ -29,9 +29,17 @@ def _run(args: argparse.Namespace) -> int:
         contact["seed"] = args.seed
     if contact:
         table["contact"] = contact
+    if args.scenario:
+        contact["scenario"] = args.scenario
+        table["contact"] = contact
+    kinect = dict(table.get("kinect", {}))
     if args.kinect or args.no_kinect:
-        kinect = dict(table.get("kinect", {}))
         kinect["enabled"] = bool(args.kinect)
+    if args.posture:
+        kinect["posture"] = args.posture
+    if args.height_m is not None:
+        kinect["height_m"] = args.height_m
+    if kinect:
         table["kinect"] = kinect
     return run_bridge(profile, parse_config(table))
 
@@ -53,6 +61,11 @@ def main(argv: list[str] | None = None) -> int:
     sim.add_argument("--no-contact", action="store_true", help="simulate the arm only")
     sim.add_argument("--pull-angle-deg", type=float, default=None, help="receiver's pull angle φ (deg, >0 down)")
     sim.add_argument("--seed", type=int, default=None, help="seed of the plant's noise")
+    sim.add_argument("--scenario", choices=["handover", "transfer"], default=None,
+                     help="handover: object on the table, pick, reach, contact when the receiver's hand "
+                          "arrives; transfer: object in the gripper from the start (controller tests)")
+    sim.add_argument("--posture", choices=["standing", "sitting"], default=None, help="the receiver's posture")
+    sim.add_argument("--height-m", type=float, default=None, help="the receiver's height, m")
     sim.add_argument("--kinect", action="store_true", help="publish the simulated Kinect's skeleton and depth")
     sim.add_argument("--no-kinect", action="store_true", help="do not simulate the Kinect")
     return run_main(_run, parser.parse_args(argv))

@@ -7,6 +7,7 @@ from typing import Annotated, Any, Literal
 import msgspec
 from msgspec import Meta
 
+from services.bridge.baxter.config import BaxterConfig
 from services.bridge.errors import BridgeConfigError
 
 
@@ -18,6 +19,12 @@ class ContactConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
 
     Attributes:
         enabled: simulate gripper, object, receiver and sensors (else only the arm).
+        scenario: ``handover`` — the whole scene (`robot_sim.handover_scene`): the object
+            waits on the table, the pick closes the fingers on it, the receiver reaches for it
+            when the robot brings it close, and the contact starts when the hand arrives (the
+            profile `deploy/sim.toml` uses this); ``transfer`` — only the transfer: the object
+            starts between the pads and the receiver's timeline starts with the bridge
+            (gripper tests and standalone controller runs).
         behaviour: receiver behaviour.
         pull_angle_deg: pull direction φ, deg (> 0 pulls downward, thesis Fig. 21).
         object_mass_kg: object mass, kg.
@@ -29,6 +36,7 @@ class ContactConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
     """
 
     enabled: bool = False
+    scenario: Literal["transfer", "handover"] = "transfer"
     behaviour: ReceiverBehaviour = "taking"
     pull_angle_deg: Annotated[float, Meta(ge=-90.0, le=90.0)] = 0.0
     object_mass_kg: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.2
@@ -67,27 +75,33 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
     """Bridge settings.
 
     Attributes:
-        backend: ``sim`` (robot_sim in real time). The hardware backend comes with its issue.
+        backend: ``sim`` (robot_sim in real time) or ``baxter`` (the real robot, see
+            docs/baxter.md; run it with ``python -m services.bridge.baxter``).
         rate_hz: joint-state publication and servo rate, Hz.
         command_timeout_s: hold the arm when no fresh joint command arrived for this long, s
             (Baxter's own time-out is 0.2 s).
         servo_time_constant_s: first-order lag of the simulated joint servo, s.
         limit_tolerance_rad: how far outside a joint limit a command may be before it is
             rejected (rounding), rad.
+        stop_deceleration_rad_s2: on `motion/stop` the bridge brakes every joint with this
+            deceleration, rad/s², then holds.
         initial_position_rad: start posture of the simulated arm (7 values), rad; empty for
             the default home posture.
         contact: the contact plant (gripper, object, receiver, sensors).
         kinect: the simulated Kinect (skeleton and depth of the receiver).
+        baxter: the Baxter backend (ROS 1 topics over Zenoh, safety on hardware).
     """
 
-    backend: Literal["sim"] = "sim"
+    backend: Literal["sim", "baxter"] = "sim"
     rate_hz: Annotated[float, Meta(ge=1.0, le=1000.0)] = 100.0
     command_timeout_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.2
     servo_time_constant_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.05
     limit_tolerance_rad: Annotated[float, Meta(ge=0.0, le=0.1)] = 1e-3
+    stop_deceleration_rad_s2: Annotated[float, Meta(gt=0.0, le=1000.0)] = 40.0
     initial_position_rad: Annotated[list[Annotated[float, Meta(ge=-10.0, le=10.0)]], Meta(max_length=7)] = []
     contact: ContactConfig = ContactConfig()
     kinect: KinectConfig = KinectConfig()
+    baxter: BaxterConfig = BaxterConfig()
 
 
 def parse_config(table: dict[str, Any]) -> BridgeConfig:

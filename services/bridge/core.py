@@ -167,3 +167,64 @@ class CommandGate:
             )
             return Decision(None, True, self._rejected_reason)
         return Decision(self._target_rad, False, "", self._feedforward_rad_s)
+
+
+class StopBrake:
+    """The bridge's own reaction to `motion/stop` (release interrupt or protective stop).
+
+    The stop does not depend on the motion service being alive: the bridge brakes the arm at
+    once with a bounded deceleration and then holds it. Every joint's speed falls by
+    `deceleration_rad_s2 · dt` per tick until zero (a joint at 1 rad/s stops in 25 ms at
+    40 rad/s²). Joint commands of the goal that was running when the stop came are ignored
+    afterwards; the first command of another goal ends the stop (the supervisor sends a new
+    goal only once it has cleared the stop).
+
+    Args:
+        deceleration_rad_s2: braking deceleration of every joint, rad/s² (> 0).
+    """
+
+    def __init__(self, deceleration_rad_s2: float = 40.0) -> None:
+        if not deceleration_rad_s2 > 0:
+            raise ValueError(f"deceleration_rad_s2 must be > 0, got {deceleration_rad_s2}")
+        self.deceleration_rad_s2 = float(deceleration_rad_s2)
+        self.active = False
+        self.reason = ""
+        self.stopped_goal_id: str | None = None
+        self.last_goal_id = ""
+        self.ignored_commands = 0
+        self._velocity_rad_s: np.ndarray | None = None
+
+    def engage(self, reason: str, velocity_rad_s: np.ndarray) -> None:
+        """A stop arrived: brake from the measured joint velocities (rad/s)."""
+        if not self.active:
+            self._velocity_rad_s = np.nan_to_num(np.asarray(velocity_rad_s, dtype=float)).copy()
+            self.stopped_goal_id = self.last_goal_id
+        self.active = True
+        self.reason = reason
+
+    def admit(self, goal_id: str) -> bool:
+        """Whether a joint command of `goal_id` may reach the arm (ends the stop when it is
+        a new goal)."""
+        if self.active:
+            if goal_id == self.stopped_goal_id:
+                self.ignored_commands += 1
+                return False
+            self.active = False
+            self.reason = ""
+            self._velocity_rad_s = None
+        self.last_goal_id = goal_id
+        return True
+
+    def step(self, dt_s: float) -> np.ndarray:
+        """Joint velocities (rad/s) for the next `dt_s`: each one brought toward zero by at
+        most the deceleration."""
+        assert self._velocity_rad_s is not None, "step() before engage()"
+        v = self._velocity_rad_s
+        dv = self.deceleration_rad_s2 * max(dt_s, 0.0)
+        self._velocity_rad_s = np.sign(v) * np.maximum(np.abs(v) - dv, 0.0)
+        return self._velocity_rad_s.copy()
+
+    @property
+    def at_rest(self) -> bool:
+        """The brake has brought every joint to zero speed."""
+        return self._velocity_rad_s is not None and not np.any(self._velocity_rad_s)

@@ -40,6 +40,8 @@ class KinectThread:
         self._stop = threading.Event()
         self._lock = threading.Lock()
         self._q_arm: np.ndarray | None = None
+        self._hand: np.ndarray | None = None
+        self._object: np.ndarray | None = None
         self._errors = RateLimitedLog(log, 5.0)
         self.frames = 0
         self._truth: dict[str, tuple[float, float, float]] = {}
@@ -55,10 +57,14 @@ class KinectThread:
         with self._lock:
             return dict(self._truth)
 
-    def update_arm(self, q_rad: np.ndarray) -> None:
-        """Hand over the arm's latest joint positions (called by the 100 Hz loop)."""
+    def update_arm(self, q_rad: np.ndarray, hand_m: np.ndarray | None = None,
+                   object_m: np.ndarray | None = None) -> None:
+        """Hand over the arm's latest joint positions (rad) and, when a handover scene drives
+        the receiver, its right hand and the object (m, `base`) (called by the 100 Hz loop)."""
         with self._lock:
             self._q_arm = q_rad.copy()
+            self._hand = None if hand_m is None else hand_m.copy()
+            self._object = None if object_m is None else object_m.copy()
 
     def start(self) -> None:
         self._thread.start()
@@ -73,9 +79,10 @@ class KinectThread:
         while not self._stop.is_set():
             with self._lock:
                 q = None if self._q_arm is None else self._q_arm.copy()
+                hand, obj = self._hand, self._object
             if q is not None:
                 try:
-                    frame = self.sim.step(time.monotonic() - t0, q)
+                    frame = self.sim.step(time.monotonic() - t0, q, object_position_m=obj, right_hand_m=hand)
                     self._skeleton.put(**frame.skeleton_fields)
                     self._depth.put(**frame.depth_fields)
                     self.frames += 1

@@ -2,6 +2,10 @@
 
 Loop at `rate_hz` (100 Hz): take every joint command received since the last tick through
 the `CommandGate`, step the backend, servo or hold, publish `robot/joint_state`.
+
+A `motion/stop` (release interrupt or protective stop) is acted on here too, without the
+motion service: the `StopBrake` brings the arm to rest with a bounded deceleration and
+ignores the stopped goal's commands. A new supervisor episode resets a simulated scene.
 """
 
 from __future__ import annotations
@@ -15,7 +19,7 @@ import numpy as np
 from bus_schema import topics
 from services.bridge.backend import Backend, make_backend
 from services.bridge.config import BridgeConfig
-from services.bridge.core import CommandGate
+from services.bridge.core import CommandGate, StopBrake
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 
 log = logging.getLogger(__name__)
@@ -27,16 +31,22 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
     """Run the bridge until SIGINT/SIGTERM. Returns the exit code."""
     initial = np.array(config.initial_position_rad) if config.initial_position_rad else None
     backend = backend or make_backend(
-        config.backend, contact=config.contact, time_constant_s=config.servo_time_constant_s,
+        config.backend, contact=config.contact, kinect=config.kinect, time_constant_s=config.servo_time_constant_s,
         initial_position_rad=initial,
     )
     gate = CommandGate(backend.joint_names, backend.limits, config.command_timeout_s,
                        config.limit_tolerance_rad)
     reject_log = RateLimitedLog(log, 1.0)
+    brake = StopBrake(config.stop_deceleration_rad_s2)
+    new_episode = getattr(backend, "new_episode", None)
+    scene_snapshot = getattr(backend, "scene_snapshot", None)
     with ServiceNode(SERVICE_NAME, profile) as node:
         state_pub = node.publisher(topics.JOINT_STATE)
         commands = node.subscribe(topics.JOINT_COMMAND)
         grip_commands = node.subscribe(topics.GRIPPER_COMMAND)
+        stops = node.subscribe(topics.MOTION_STOP, queue_size=16)
+        supervisor = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16) if new_episode else None
+        episode_id: int | None = None
         extra_pubs: dict[str, Any] = {}
 
         def publish_extra(suffix: str, fields: dict[str, Any]) -> None:
@@ -64,8 +74,22 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
             for _tick in node.loop(config.rate_hz):
                 now_s = time.monotonic()
                 dt_s, last_s = now_s - last_s, now_s
-                current = backend.read().position_rad
+                measured = backend.read()
+                current = measured.position_rad
+                for rx in stops.drain():
+                    if not brake.active:
+                        log.warning("stop: braking", extra=kv(reason=rx.msg.reason, protective=rx.msg.protective,
+                                                              source=rx.msg.source))
+                    brake.engage(rx.msg.reason, measured.velocity_rad_s)
+                if supervisor is not None:
+                    for rx in supervisor.drain():
+                        if episode_id is not None and rx.msg.episode_id != episode_id:
+                            log.info("new episode: scene reset", extra=kv(episode_id=rx.msg.episode_id))
+                            new_episode()
+                        episode_id = rx.msg.episode_id
                 for rx in commands.drain():
+                    if not brake.admit(rx.msg.goal_id):
+                        continue
                     reason = gate.offer(rx.msg.names, rx.msg.position_rad, rx.rx_monotonic, current,
                                         rx.msg.velocity_rad_s)
                     if reason is not None:
@@ -75,13 +99,22 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                 if grips:
                     backend.gripper_command(grips[-1].msg.grip_force_n)
                 decision = gate.decide(now_s)
-                if decision.holding:
+                if brake.active:
+                    velocity = brake.step(dt_s)
+                    if brake.at_rest:
+                        backend.hold()
+                    else:
+                        backend.command(current, velocity)
+                    holding = True
+                elif decision.holding:
                     backend.hold()
                     if not was_holding:
                         log.info("arm holding", extra=kv(reason=decision.reason))
                 else:
                     backend.command(decision.target_rad, decision.feedforward_rad_s)
-                was_holding = decision.holding
+                if not brake.active:
+                    holding = decision.holding
+                was_holding = holding
                 backend.step(dt_s)
                 reading = backend.read()
                 state_pub.put(
@@ -89,16 +122,20 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                     position_rad=reading.position_rad.tolist(),
                     velocity_rad_s=reading.velocity_rad_s.tolist(),
                     effort_nm=reading.effort_nm.tolist(),
-                    holding=decision.holding,
+                    holding=holding,
                     backend=backend.name,
                     enabled=True,
                 )
                 backend.publish_extras(publish_extra)
                 if kinect is not None:
-                    kinect.update_arm(reading.position_rad)
+                    if scene_snapshot is not None:
+                        kinect.update_arm(reading.position_rad, *scene_snapshot())
+                    else:
+                        kinect.update_arm(reading.position_rad)
         finally:
             if kinect is not None:
                 kinect.stop()
             backend.close()
-            log.info("bridge stopped", extra=kv(accepted=gate.accepted, rejected=gate.rejected))
+            log.info("bridge stopped", extra=kv(accepted=gate.accepted, rejected=gate.rejected,
+                                                ignored_after_stop=brake.ignored_commands))
     return 0

@@ -533,14 +533,15 @@ class SlipGuardParams:
 
     hold_per_weight: float = 4.0
     min_hold_force_n: float = 1.0
-    release_share: float = 0.3
+    release_share: float = 0.5
     share_cap: float = 3.0
     guard_share: float = 0.8
     slip_speed_threshold_m_s: float = 0.005
     adapt_rate_per_s: float = 20.0
     fall_steepness: float = 1.5
     resist_per_force: float = 0.0
-    ease_off: float = 0.3
+    slip_share_memory: bool = True
+    ease_off: float = 1.0
     release_epsilon_n: float = 0.2
     max_grip_force_n: float = ABSOLUTE_MAX_GRIP_FORCE_N
 
@@ -573,6 +574,8 @@ class SlipGuardController(_BaseController):
         self.grip_force_n = np.zeros(self.n_episodes)
         self.gain = np.ones(self.n_episodes)
         self.rest_load_n: np.ndarray | None = None
+        self.share_before_slip = np.ones(self.n_episodes)
+        self._previous_share = np.ones(self.n_episodes)
 
     def step(self, sample: SensorSample) -> np.ndarray:
         self._require_reset(sample)
@@ -592,10 +595,18 @@ class SlipGuardController(_BaseController):
             hold = p.hold_per_weight * self.rest_load_n + p.min_hold_force_n
             self.grip_force_n = np.minimum(hold, p.max_grip_force_n)
         w0 = self.rest_load_n
-        hold = p.hold_per_weight * w0 + p.min_hold_force_n
         share = fy / w0
         speed = np.hypot(vx, vy)
         slipping = valid & (speed > p.slip_speed_threshold_m_s)
+        hold = p.hold_per_weight * w0 + p.min_hold_force_n
+        if p.slip_share_memory:
+            # While the object slides the wrist reads kinetic friction along the slide, not the
+            # load: keep the share seen one step before the slide began (if the gripper carried
+            # the load then), so a slide cannot look like a receiver taking the weight.
+            self.share_before_slip = np.where(slipping, self.share_before_slip, self._previous_share)
+            self._previous_share = share
+            loaded = slipping & (self.share_before_slip > p.guard_share)
+            share = np.where(loaded, np.maximum(share, self.share_before_slip), share)
         adapt = slipping & (share > p.guard_share)
         g_max = p.max_grip_force_n / hold
         self.gain = np.where(adapt, np.minimum(self.gain + p.adapt_rate_per_s * dt * speed / p.slip_speed_threshold_m_s, g_max), self.gain)

@@ -18,6 +18,9 @@ log = logging.getLogger("planner")
 
 #: Longest wait between two looks at the inputs (also bounds the republish jitter), s.
 WAIT_S = 0.05
+#: The latest plan is published again this often (s), so that a frozen planner is noticed by
+#: the freshness of `planner/transfer` and a late subscriber gets the current plan.
+REPUBLISH_PERIOD_S = 0.2
 
 
 def run(args: argparse.Namespace) -> int:
@@ -31,6 +34,8 @@ def run(args: argparse.Namespace) -> int:
         human_sub = node.subscribe(T.HUMAN, queue_size=4)
         object_sub = node.subscribe(T.OBJECT, queue_size=4)
         log.info("planner ready: waiting for %s", T.HUMAN.key(profile.prefix))
+        latest: dict | None = None
+        last_put_s = 0.0
         while not node.should_stop:
             node.wait(WAIT_S)
             human = human_sub.latest()
@@ -42,8 +47,12 @@ def run(args: argparse.Namespace) -> int:
                 obj.msg.mass_kg if obj else 0.0,
                 time.monotonic(),
             )
+            now_s = time.monotonic()
             if fields is not None:
-                pub.put(**fields)
+                latest = fields
+            if latest is not None and (fields is not None or now_s - last_put_s >= REPUBLISH_PERIOD_S):
+                pub.put(**latest)
+                last_put_s = now_s
             if note is not None:
                 if note.startswith("planned"):
                     log.info(note)

@@ -32,7 +32,7 @@ def _record(args: argparse.Namespace) -> int:
     else:
         directory = Path(args.output_dir or cfg.get("output_dir", "recordings"))
         output = default_output_path(directory, args.run_id or time.strftime("%Y%m%d-%H%M%S"))
-    flush = float(cfg.get("flush_period_s", 0.25))
+    flush = float(cfg.get("flush_period_s", 0.1))
     if not 0.01 <= flush <= 10:
         raise RecorderError("[services.recorder.config].flush_period_s must be within 0.01–10 s")
     depth_every = cfg.get("depth_every", 3)

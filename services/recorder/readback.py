@@ -21,11 +21,12 @@ def _reader(path: Path) -> rrc.RrdReader:
         raise RecorderError(f"{path} is not a readable Rerun recording: {exc}") from None
 
 
-def entity_row_counts(path: Path) -> dict[str, int]:
-    """Rows logged per entity path (static and temporal)."""
+def entity_row_counts(path: Path, include_static: bool = True) -> dict[str, int]:
+    """Rows logged per entity path (temporal, and static ones unless `include_static` is False)."""
     counts: dict[str, int] = defaultdict(int)
     for chunk in _reader(path).stream():
-        counts[chunk.entity_path] += chunk.num_rows
+        if include_static or not chunk.is_static:
+            counts[chunk.entity_path] += chunk.num_rows
     return dict(sorted(counts.items()))
 
 
@@ -74,3 +75,21 @@ def read_text_log(path: Path, entity: str = "/events") -> list[str]:
             rows.append((t, text[0] if isinstance(text, list) else text))
     rows.sort()
     return [text for _, text in rows]
+
+
+def read_component(path: Path, entity: str, component: str) -> list[tuple[int, object]]:
+    """(time_ns, value) rows of one component (e.g. ``Points3D:positions``) of `entity`, sorted
+    by the ``time`` timeline; values as Python lists (positions in the `base` frame, m)."""
+    entity = entity if entity.startswith("/") else "/" + entity
+    rows: list[tuple[int, object]] = []
+    for chunk in _reader(path).stream():
+        if chunk.entity_path != entity or chunk.is_static:
+            continue
+        batch = chunk.to_record_batch()
+        names = [n for n in batch.schema.names if n.endswith(component)]
+        if not names or "time" not in batch.schema.names:
+            continue
+        times = batch.column("time").cast(pa.int64()).to_pylist()
+        rows += [(t, v) for t, v in zip(times, batch.column(names[0]).to_pylist(), strict=True) if v is not None]
+    rows.sort(key=lambda r: r[0])
+    return rows

@@ -27,10 +27,15 @@ import zenoh
 from bus_schema import Topic, alive_key, decode, encode_for
 from bus_schema.codec import DecodeError
 from bus_schema.messages import Message
+from bus_schema.topics import HEARTBEAT
 from services.runtime.errors import BusError
+from services.runtime.faults import FaultyPut, rules_for
 from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile, zenoh_config
+
+#: Period of every service's heartbeat (`runtime/heartbeat`), s.
+HEARTBEAT_PERIOD_S = 0.05
 
 log = logging.getLogger(__name__)
 
@@ -159,6 +164,11 @@ class TypedPublisher(Generic[M]):
         self._publisher = node.session.declare_publisher(
             self.key, congestion_control=cc, priority=prio
         )
+        self._send: Any = self._publisher.put
+        rule = node.fault_rules.get(topic.suffix)
+        if rule is not None:
+            self._send = FaultyPut(self._publisher.put, rule)
+            log.warning("fault injection on %s: %s=%g", topic.suffix, rule.kind, rule.value)
 
     def next_header(self) -> dict[str, Any]:
         """Header fields for the next message (advances `seq`)."""
@@ -174,27 +184,31 @@ class TypedPublisher(Generic[M]):
             The message that was published.
         """
         msg = self.topic.type(**self.next_header(), **fields)
-        self._publisher.put(encode_for(self.topic, msg))
+        self._send(encode_for(self.topic, msg))
         return msg  # type: ignore[return-value]
 
     def put_message(self, msg: M) -> None:
         """Publish a message built elsewhere (its header is sent as is)."""
-        self._publisher.put(encode_for(self.topic, msg))
+        self._send(encode_for(self.topic, msg))
 
     def put_raw(self, payload: bytes) -> None:
         """Publish raw bytes on this key (fault injection and fuzzing only)."""
-        self._publisher.put(payload)
+        self._send(payload)
 
     def undeclare(self) -> None:
+        if isinstance(self._send, FaultyPut):
+            self._send.close()
         try:
             self._publisher.undeclare()
         except Exception:
             pass
 
 
-def open_session(profile: Profile, mode: str = "client", timeout_s: float = 10.0) -> zenoh.Session:
+def open_session(profile: Profile, mode: str = "client", timeout_s: float = 10.0,
+                 user: str | None = None) -> zenoh.Session:
     """Open a Zenoh session with the profile's loopback-only config, retrying until the
-    router answers or `timeout_s` passes.
+    router answers or `timeout_s` passes. `user` names the credentials a client presents
+    when the profile has ``[bus.auth]`` (services pass their own name).
 
     Raises:
         BusError: the router at the profile's endpoint did not answer in time.
@@ -203,7 +217,7 @@ def open_session(profile: Profile, mode: str = "client", timeout_s: float = 10.0
     last_error: Exception | None = None
     while True:
         try:
-            return zenoh.open(zenoh_config(profile, mode))  # type: ignore[arg-type]
+            return zenoh.open(zenoh_config(profile, mode, user))  # type: ignore[arg-type]
         except zenoh.ZError as exc:
             last_error = exc
         if time.monotonic() >= deadline:
@@ -228,6 +242,11 @@ class ServiceNode:
     Entering opens the session (client mode, connecting to the profile's router), declares
     the liveliness token ``<prefix>/alive/<name>`` and installs SIGINT/SIGTERM handlers that
     request shutdown. Leaving undeclares everything and closes the session, from this thread.
+
+    `wait()` and `loop()` (the main thread's waits) also send the service's heartbeat
+    (`runtime/heartbeat`, `HEARTBEAT_PERIOD_S`), so a frozen service falls silent; a service
+    that blocks elsewhere calls `heartbeat()` itself. `HANDOVER_FAULTS` rules for this
+    service (`services.runtime.faults`) delay or drop its publications (fault tests only).
     """
 
     def __init__(
@@ -253,6 +272,11 @@ class ServiceNode:
         self._token: Any = None
         self._previous_handlers: dict[int, Any] = {}
         self.loops: list[RateLoop] = []
+        self.fault_rules = rules_for(name)
+        self._heartbeat_pub: TypedPublisher[Any] | None = None
+        self._beats = 0
+        self._next_beat_s = 0.0
+        self._opened_s = time.monotonic()
 
     # ------------------------------------------------------------------ lifecycle
     def __enter__(self) -> ServiceNode:
@@ -266,10 +290,13 @@ class ServiceNode:
         if self._install_signal_handlers and threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGINT, signal.SIGTERM):
                 self._previous_handlers[sig] = signal.signal(sig, self._on_signal)
-        self._session = open_session(self.profile, self.mode, self.connect_timeout_s)
+        self._session = open_session(self.profile, self.mode, self.connect_timeout_s, user=self.name)
         self._token = self._session.liveliness().declare_token(
             alive_key(self.name, self.profile.prefix)
         )
+        self._opened_s = time.monotonic()
+        self._heartbeat_pub = self.publisher(HEARTBEAT)
+        self.heartbeat()
         log.info(
             "%s connected to the bus",
             self.name,
@@ -334,12 +361,27 @@ class ServiceNode:
             self._new_data = True
             self._wake.notify_all()
 
+    def heartbeat(self) -> None:
+        """Send the heartbeat if it is due (cheap to call often; main thread)."""
+        now = time.monotonic()
+        if self._heartbeat_pub is None or now < self._next_beat_s:
+            return
+        self._next_beat_s = now + HEARTBEAT_PERIOD_S
+        try:
+            self._heartbeat_pub.put(uptime_s=min(now - self._opened_s, 86400.0), beats=self._beats)
+            self._beats += 1
+        except Exception as exc:  # closing session: the heartbeat must never kill a service
+            log.debug("heartbeat not sent: %s", exc)
+
     def wait(self, timeout_s: float) -> bool:
-        """Block until any subscription has new data, shutdown, or `timeout_s` passes.
+        """Block until any subscription has new data, shutdown, or `timeout_s` passes
+        (at most until the next heartbeat is due).
 
         Returns:
             True when new data arrived since the last call.
         """
+        self.heartbeat()
+        timeout_s = min(timeout_s, max(0.0, self._next_beat_s - time.monotonic()))
         with self._wake:
             if not self._new_data and not self.stop_event.is_set():
                 self._wake.wait(timeout_s)
@@ -351,7 +393,9 @@ class ServiceNode:
         """A fixed-rate loop (see `RateLoop`) that ends on shutdown."""
         loop = RateLoop(rate_hz, self.stop_event, name=f"{self.name} {rate_hz:g} Hz loop")
         self.loops.append(loop)
-        return iter(loop)
+        for tick in loop:
+            self.heartbeat()
+            yield tick
 
     def stats(self) -> dict[str, Any]:
         """Counters of every subscription and loop, for logs and tests."""

@@ -65,6 +65,184 @@ class ServiceSpec:
     config: dict[str, Any] = field(default_factory=dict)
 
 
+CREDENTIALS_ENV = "HANDOVER_BUS_CREDENTIALS"
+_ACL_PERMISSIONS = ("allow", "deny")
+
+
+@dataclass(frozen=True)
+class BusAuth:
+    """User/password authentication on the bus (``[bus.auth]``).
+
+    The credentials file is Zenoh's usrpwd dictionary: one ``user:password`` line per user
+    (services authenticate with their own name as the user). The router reads the whole
+    file; a client reads its own line. The file must not be readable by group or others.
+    The environment variable ``HANDOVER_BUS_CREDENTIALS`` overrides the path, so each host
+    can keep its file outside the repository.
+
+    Attributes:
+        credentials_file: the file named in the profile (relative to the profile's folder).
+    """
+
+    credentials_file: Path
+
+    def checked_file(self) -> Path:
+        """The credentials file in use (env override first), checked to exist and be private.
+
+        Raises:
+            ProfileError: missing, or readable by group/others.
+        """
+        import os
+
+        path = Path(os.environ.get(CREDENTIALS_ENV) or self.credentials_file).expanduser()
+        if not path.is_file():
+            raise ProfileError(f"bus credentials file {path} not found (set [bus.auth].credentials_file "
+                               f"or {CREDENTIALS_ENV}; one 'user:password' line per service)")
+        if path.stat().st_mode & 0o077:
+            raise ProfileError(f"bus credentials file {path} is readable by others: chmod 600 {path}")
+        return path
+
+    def users(self) -> dict[str, str]:
+        """user → password, from the file."""
+        path = self.checked_file()
+        out: dict[str, str] = {}
+        for line_no, line in enumerate(path.read_text().splitlines(), 1):
+            if not line.strip() or line.lstrip().startswith("#"):
+                continue
+            user, sep, password = line.partition(":")
+            if not sep or not user or not password:
+                raise ProfileError(f"{path} line {line_no}: expected 'user:password'")
+            out[user] = password
+        return out
+
+    def password(self, user: str) -> str:
+        """`user`'s password. Raises ProfileError when the file has no line for it."""
+        users = self.users()
+        if user not in users:
+            raise ProfileError(f"bus credentials file has no password for user {user!r} "
+                               f"(add a '{user}:<password>' line)")
+        return users[user]
+
+
+@dataclass(frozen=True)
+class UserPermissions:
+    """What one bus user may do (``[bus.access_control.users.<name>]``).
+
+    Key expressions may use ``{prefix}`` for the profile's key prefix.
+
+    Attributes:
+        publish: key expressions it may put on.
+        subscribe: key expressions it may subscribe to (and receive).
+        query: key expressions it may query and declare queryables on.
+    """
+
+    publish: tuple[str, ...] = ()
+    subscribe: tuple[str, ...] = ()
+    query: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class AccessControl:
+    """The router's access control list (``[bus.access_control]``), deny by default.
+
+    Every authenticated user may also declare its own liveliness token
+    (``{prefix}/alive/<user>``), watch and query the others', and publish the shared
+    heartbeat key; everything else needs a ``publish``/``subscribe``/``query`` entry.
+
+    Attributes:
+        default_permission: ``deny`` (anything not allowed below is dropped) or ``allow``.
+        users: user name → permissions.
+        common_publish: key expressions every user may put on (e.g. the heartbeat).
+    """
+
+    default_permission: str = "deny"
+    users: dict[str, UserPermissions] = field(default_factory=dict)
+    common_publish: tuple[str, ...] = ("{prefix}/runtime/heartbeat",)
+
+    def zenoh_dict(self, prefix: str) -> dict[str, Any]:
+        """The ``access_control`` section of the router's Zenoh config."""
+
+        def expand(keys: tuple[str, ...]) -> list[str]:
+            return [k.replace("{prefix}", prefix) for k in keys]
+
+        alive = f"{prefix}/alive/**"
+        rules: list[dict[str, Any]] = [
+            {"id": "liveliness_watch", "permission": "allow", "flows": ["ingress"],
+             "messages": ["declare_liveliness_subscriber", "liveliness_query"], "key_exprs": [alive]},
+            {"id": "liveliness_see", "permission": "allow", "flows": ["egress"],
+             "messages": ["liveliness_token", "declare_liveliness_subscriber", "reply"], "key_exprs": [alive]},
+        ]
+        subjects: list[dict[str, Any]] = []
+        policies: list[dict[str, Any]] = []
+        for name, perms in sorted(self.users.items()):
+            ids: list[str] = ["liveliness_watch", "liveliness_see"]
+            publish = expand(perms.publish) + expand(self.common_publish)
+            candidates = (
+                ("token", ["ingress"], ["liveliness_token"], [f"{prefix}/alive/{name}"]),
+                ("publish", ["ingress"], ["put", "delete"], publish),
+                ("subscribe", ["ingress"], ["declare_subscriber"], expand(perms.subscribe)),
+                ("receive", ["egress"], ["put", "delete"], expand(perms.subscribe)),
+                ("query", ["ingress"], ["query", "declare_queryable"], expand(perms.query)),
+                ("query_replies", ["egress"], ["reply", "query"], expand(perms.query)),
+            )
+            for kind, flows, messages, keys in candidates:
+                if keys:
+                    rule_id = f"{name}_{kind}"
+                    rules.append({"id": rule_id, "permission": "allow", "flows": flows,
+                                  "messages": messages, "key_exprs": keys})
+                    ids.append(rule_id)
+            subjects.append({"id": name, "usernames": [name]})
+            policies.append({"id": f"{name}_policy", "rules": ids, "subjects": [name]})
+        return {"enabled": True, "default_permission": self.default_permission,
+                "rules": rules, "subjects": subjects, "policies": policies}
+
+
+def _parse_auth(table: Any, path: Path) -> BusAuth | None:
+    if table is None:
+        return None
+    if not isinstance(table, dict) or set(table) - {"credentials_file"} or "credentials_file" not in table:
+        raise ProfileError(f"{path}: [bus.auth] must hold exactly credentials_file = \"<path>\"")
+    file = table["credentials_file"]
+    if not isinstance(file, str) or not file:
+        raise ProfileError(f"{path}: bus.auth.credentials_file must be a path")
+    resolved = Path(file).expanduser()
+    if not resolved.is_absolute():
+        resolved = path.parent / resolved
+    return BusAuth(resolved)
+
+
+def _key_list(value: Any, where: str, path: Path) -> tuple[str, ...]:
+    if not isinstance(value, list) or not all(isinstance(k, str) and k for k in value):
+        raise ProfileError(f"{path}: {where} must be a list of key expressions")
+    return tuple(value)
+
+
+def _parse_access_control(table: Any, path: Path) -> AccessControl | None:
+    if table is None:
+        return None
+    if not isinstance(table, dict):
+        raise ProfileError(f"{path}: [bus.access_control] must be a table")
+    unknown = set(table) - {"enabled", "default_permission", "users", "common_publish"}
+    if unknown:
+        raise ProfileError(f"{path}: [bus.access_control] has unknown keys {sorted(unknown)}")
+    if not table.get("enabled", True):
+        return None
+    default = table.get("default_permission", "deny")
+    if default not in _ACL_PERMISSIONS:
+        raise ProfileError(f"{path}: bus.access_control.default_permission must be 'deny' or 'allow'")
+    users_table = table.get("users", {})
+    if not isinstance(users_table, dict) or not users_table:
+        raise ProfileError(f"{path}: [bus.access_control.users.<name>] tables are missing")
+    users: dict[str, UserPermissions] = {}
+    for name, perms in users_table.items():
+        if not isinstance(perms, dict) or set(perms) - {"publish", "subscribe", "query"}:
+            raise ProfileError(f"{path}: [bus.access_control.users.{name}] may hold publish, subscribe, query")
+        users[name] = UserPermissions(
+            **{k: _key_list(v, f"bus.access_control.users.{name}.{k}", path) for k, v in perms.items()})
+    common = _key_list(table.get("common_publish", ["{prefix}/runtime/heartbeat"]),
+                       "bus.access_control.common_publish", path)
+    return AccessControl(default, users, common)
+
+
 @dataclass(frozen=True)
 class Profile:
     """A loaded deploy profile.
@@ -78,6 +256,8 @@ class Profile:
         services: the services, in start order.
         launcher: the launcher's own table.
         raw: the whole parsed document.
+        auth: user/password authentication on the bus (``[bus.auth]``), or None.
+        access_control: the router's access control list (``[bus.access_control]``), or None.
     """
 
     path: Path | None
@@ -85,6 +265,8 @@ class Profile:
     prefix: str = DEFAULT_PREFIX
     allow_non_loopback: bool = False
     zenoh_overrides: dict[str, Any] = field(default_factory=dict)
+    auth: BusAuth | None = None
+    access_control: AccessControl | None = None
     services: tuple[ServiceSpec, ...] = ()
     launcher: dict[str, Any] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict)
@@ -210,12 +392,20 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
     overrides = bus.get("zenoh", {})
     if not isinstance(overrides, dict):
         raise ProfileError(f"{path}: [bus.zenoh] must be a table")
+    auth = _parse_auth(bus.get("auth"), path)
+    access_control = _parse_access_control(bus.get("access_control"), path)
+    if allow and auth is None:
+        raise ProfileError(f"{path}: bus.allow_non_loopback = true needs [bus.auth] (user/password per service)")
+    if access_control is not None and auth is None:
+        raise ProfileError(f"{path}: [bus.access_control] names users, so it needs [bus.auth]")
     return Profile(
         path=path,
         endpoint=endpoint,
         prefix=prefix,
         allow_non_loopback=allow,
         zenoh_overrides=overrides,
+        auth=auth,
+        access_control=access_control,
         services=tuple(_as_spec(name, table, path) for name, table in services_table.items()),
         launcher=dict(doc.get("launcher", {})),
         raw=doc,
@@ -240,10 +430,14 @@ def _base_config(mode: str, listen: list[str], connect: list[str]) -> dict[str, 
     }
 
 
-def zenoh_config_dict(profile: Profile, mode: Literal["client", "router", "peer"]) -> dict[str, Any]:
+def zenoh_config_dict(profile: Profile, mode: Literal["client", "router", "peer"],
+                      user: str | None = None) -> dict[str, Any]:
     """The JSON-able Zenoh config for a session of `mode` under `profile`.
 
     ``router`` listens on the profile's endpoint; ``client`` and ``peer`` connect to it.
+    With ``[bus.auth]`` the router checks every client's user/password against the
+    credentials file and a client presents `user`'s (a client without a user gets none and
+    is refused); with ``[bus.access_control]`` the router enforces the ACL.
     """
     validate_endpoint(profile.endpoint, profile.allow_non_loopback)
     if mode == "router":
@@ -252,6 +446,13 @@ def zenoh_config_dict(profile: Profile, mode: Literal["client", "router", "peer"
         conf = _base_config(mode, [], [profile.endpoint])
     else:
         raise ProfileError(f"unknown Zenoh mode {mode!r}")
+    if profile.auth is not None:
+        if mode == "router":
+            conf["transport"]["auth"] = {"usrpwd": {"dictionary_file": str(profile.auth.checked_file())}}
+        elif user is not None:
+            conf["transport"]["auth"] = {"usrpwd": {"user": user, "password": profile.auth.password(user)}}
+    if mode == "router" and profile.access_control is not None:
+        conf["access_control"] = profile.access_control.zenoh_dict(profile.prefix)
     _deep_merge(conf, profile.zenoh_overrides)
     # Whatever the overrides say, scouting stays off.
     conf["scouting"]["multicast"]["enabled"] = False
@@ -259,12 +460,13 @@ def zenoh_config_dict(profile: Profile, mode: Literal["client", "router", "peer"
     return conf
 
 
-def zenoh_config(profile: Profile, mode: Literal["client", "router", "peer"]):
-    """A `zenoh.Config` for a session of `mode` (never Zenoh's multicast-scouting default)."""
+def zenoh_config(profile: Profile, mode: Literal["client", "router", "peer"], user: str | None = None):
+    """A `zenoh.Config` for a session of `mode` (never Zenoh's multicast-scouting default);
+    `user` picks the credentials of a client when the profile has ``[bus.auth]``."""
     import zenoh
 
     try:
-        return zenoh.Config.from_json5(json.dumps(zenoh_config_dict(profile, mode)))
+        return zenoh.Config.from_json5(json.dumps(zenoh_config_dict(profile, mode, user)))
     except Exception as exc:  # zenoh raises ZError
         raise ProfileError(f"invalid Zenoh settings in the profile: {exc}") from None
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from bus_schema import TOPICS, topics
-from services.recorder.core import event_key, numeric_fields, to_rerun
+from services.recorder.core import event_key, message_rows, numeric_fields
 from tests.samples import SAMPLES
 
 
@@ -15,13 +15,14 @@ def test_numeric_fields_flatten_tuples_and_skip_header():
 
 def test_every_topic_maps_to_entities():
     for topic in TOPICS:
-        logged = to_rerun(topic, SAMPLES[topic.suffix])
+        rows = message_rows(topic, SAMPLES[topic.suffix])
+        logged = rows.scalars + rows.points + rows.logs
         assert logged, topic.suffix
         assert all(isinstance(path, str) and path for path, _ in logged)
 
 
 def test_joint_state_gets_one_series_per_joint():
-    paths = [p for p, _ in to_rerun(topics.JOINT_STATE, SAMPLES["robot/joint_state"])]
+    paths = [p for p, _ in message_rows(topics.JOINT_STATE, SAMPLES["robot/joint_state"]).scalars]
     assert sum(p.startswith("robot/joint_position/") for p in paths) == 7
     assert "robot/joint_position/right_e1" in paths
 
@@ -29,6 +30,6 @@ def test_joint_state_gets_one_series_per_joint():
 def test_events_only_when_they_change():
     state = SAMPLES["supervisor/state"]
     assert event_key(state) == ("transfer", "reached")
-    assert any(p == "events" for p, _ in to_rerun(topics.SUPERVISOR_STATE, state))
-    assert not any(p == "events" for p, _ in to_rerun(topics.SUPERVISOR_STATE, state, log_event_text=False))
+    assert any(p == "events" for p, _ in message_rows(topics.SUPERVISOR_STATE, state).logs)
+    assert not any(p == "events" for p, _ in message_rows(topics.SUPERVISOR_STATE, state, log_event_text=False).logs)
     assert event_key(SAMPLES["robot/joint_state"]) is None

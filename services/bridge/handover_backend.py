@@ -1,0 +1,120 @@
+"""Sim backend of a full handover: the arm plus `robot_sim.handover_scene.HandoverScene`.
+
+Each bridge tick (10 ms at 100 Hz) steps the arm, then the scene with the tool position
+(pinocchio FK of the arm), the tool speed and the latest `gripper/command` force, and
+publishes
+
+- `sensors/wrist_wrench`, `sensors/object_motion`: what the sensors of a real gripper would
+  read (zero load and no surface while nothing is held);
+- `sim/truth`: object, receiver hand and tool in Baxter's `base` frame, who holds the object,
+  whether it was dropped.
+
+The scene's receiver also drives the simulated Kinect's body (`scene_snapshot`), so the
+skeleton the tracker sees and the hand that takes the object are the same hand. A new
+supervisor episode (`new_episode`) puts the object back on the table and the receiver's
+hand back at rest: the lab assistant resetting the scene.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+
+import numpy as np
+
+from robot_sim.baxter import arm_model
+from robot_sim.contact.config import ContactSimError
+from robot_sim.handover_scene import HandoverScene, SceneOutput, SceneParams
+from services.bridge.backend import PublishFn, SimBackend
+from services.bridge.errors import BridgeConfigError
+
+_INT16 = 32767
+
+
+def _clip(value: float, bound: float) -> float:
+    value = float(value)
+    if not math.isfinite(value):
+        return 0.0
+    return max(-bound, min(bound, value))
+
+
+def _vec(v: np.ndarray, bound: float = 100.0) -> tuple[float, float, float]:
+    return tuple(float(c) for c in np.clip(np.nan_to_num(np.asarray(v, float)), -bound, bound))
+
+
+class HandoverSimBackend(SimBackend):
+    """Simulated arm + the whole handover scene (see the module docstring).
+
+    Args:
+        time_constant_s, initial_position_rad: the arm servo (see `SimBackend`).
+        scene_params: the scene (receiver behaviour and body, object, friction, seed).
+    """
+
+    name = "sim"
+
+    def __init__(self, scene_params: SceneParams, *, time_constant_s: float = 0.05,
+                 initial_position_rad: np.ndarray | None = None) -> None:
+        super().__init__(time_constant_s, initial_position_rad)
+        try:
+            self.scene = HandoverScene(scene_params)
+        except ContactSimError as exc:
+            raise BridgeConfigError(f"invalid [services.bridge.config.contact]: {exc}") from None
+        self.grip_command_n = 0.0
+        self._out: SceneOutput | None = None
+        self._tool = arm_model().tool_pose(self.arm.state.position_rad)[0]
+        self._tool_speed = 0.0
+        self._lock = threading.Lock()
+        self._reset_pending = False
+
+    def gripper_command(self, grip_force_n: float) -> None:
+        self.grip_command_n = float(grip_force_n)
+
+    def new_episode(self) -> None:
+        """Reset the scene at the next step (called from the bridge loop)."""
+        self._reset_pending = True
+
+    def step(self, dt_s: float) -> None:
+        super().step(dt_s)
+        tool = arm_model().tool_pose(self.arm.state.position_rad)[0]
+        if dt_s > 0:
+            self._tool_speed = float(np.linalg.norm(tool - self._tool) / dt_s)
+        self._tool = tool
+        with self._lock:
+            if self._reset_pending:
+                self.scene.reset()
+                self._reset_pending = False
+            self._out = self.scene.step(dt_s, tool, self._tool_speed, self.grip_command_n)
+
+    def scene_snapshot(self) -> tuple[np.ndarray, np.ndarray]:
+        """(receiver's right hand, object centre), `base`, m: for the simulated Kinect."""
+        with self._lock:
+            return self.scene.hand_m.copy(), self.scene.object_m.copy()
+
+    def publish_extras(self, publish: PublishFn) -> None:
+        out = self._out
+        if out is None:
+            return
+        publish("sensors/wrist_wrench", {
+            "force_n": (_clip(out.wrist_force_n[0], 1e4), _clip(out.wrist_force_n[1], 1e4), 0.0),
+        })
+        publish("sensors/object_motion", {
+            "displacement_counts": (int(_clip(out.optical_counts[0], _INT16)), int(_clip(out.optical_counts[1], _INT16))),
+            "counts_per_m": float(out.optical_counts_per_m),
+            "dt_s": float(min(max(out.optical_dt_s, 1e-6), 1.0)),
+            "surface_valid": bool(out.optical_valid),
+            "velocity_m_s": (_clip(out.slip_velocity_m_s[0], 1e3), _clip(out.slip_velocity_m_s[1], 1e3)),
+            "accel_y_m_s2": _clip(out.accel_y_m_s2, 1e4),
+        })
+        publish("sim/truth", {
+            "object_position_m": _vec(out.object_position_m),
+            "object_velocity_m_s": _vec(out.object_velocity_m_s, 1e3),
+            "held_by": out.held_by,
+            "dropped": bool(out.dropped),
+            "slip_m": _clip(out.slip_m, 10.0),
+            "grip_force_n": max(0.0, _clip(out.grip_force_n, 1e4)),
+            "receiver_hand_position_m": _vec(out.receiver_hand_m),
+            "receiver_pull_n": _clip(out.receiver_pull_n, 1e4),
+            "tool_position_m": _vec(self._tool),
+            "tool_speed_m_s": min(self._tool_speed, 1000.0),
+            "kinect_hand_truth_m": _vec(out.receiver_hand_m),
+        })

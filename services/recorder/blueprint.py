@@ -1,0 +1,78 @@
+"""The recording's layout (Rerun blueprint) and the static look of its entities.
+
+Layout: a 3-D view of the `base` frame (robot, human, object, target, tool path) on the left;
+on the right, time series of the transfer loop's signals and a text log of events:
+
+- Grip force (N): command F_G (``gripper/command``), measured (``gripper/state``), grip force at
+  release (a marker);
+- Wrist force (N): F_sx, F_sy (``sensors/wrist_wrench/force_n/0``, ``/1``);
+- Object motion: a_y (m/s², down +) and slip velocity along y (m/s) from ``sensors/object_motion``;
+- Gripper mode (0 grasp, 1 slip, 2 release, 3 hold) and joint positions (rad);
+- Events: supervisor phases, motion, gripper modes, stops and the release.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import rerun as rr
+import rerun.blueprint as rrb
+
+from services.recorder.columns import TIMELINE_STAMP
+from services.recorder.core import POINT_STYLES
+
+#: Time series shown in the signal panels: entity → (legend name, RGB colour).
+SIGNALS: dict[str, tuple[str, tuple[int, int, int]]] = {
+    "bus/gripper/command/grip_force_n": ("F_G command", (30, 110, 230)),
+    "bus/gripper/state/measured_grip_force_n": ("F_G measured", (120, 180, 255)),
+    "bus/sensors/wrist_wrench/force_n/0": ("F_sx (pull)", (220, 80, 40)),
+    "bus/sensors/wrist_wrench/force_n/1": ("F_sy (load, down +)", (40, 160, 60)),
+    "bus/sensors/object_motion/accel_y_m_s2": ("a_y (m/s², down +)", (200, 50, 160)),
+    "bus/sensors/object_motion/velocity_m_s/1": ("slip velocity y (m/s)", (120, 60, 200)),
+    "signals/gripper_mode": ("mode: 0 grasp 1 slip 2 release 3 hold", (90, 90, 90)),
+}
+
+
+def static_styles() -> list[tuple[str, Any]]:
+    """(entity, archetype) to log once as static: point looks and series names/colours."""
+    out: list[tuple[str, Any]] = [
+        (entity, rr.Points3D.from_fields(radii=[s.radius_m], colors=[s.color_rgb], labels=[s.label]))
+        for entity, s in POINT_STYLES.items()
+    ]
+    out += [(entity, rr.SeriesLines(names=[name], colors=[rgb])) for entity, (name, rgb) in SIGNALS.items()]
+    out.append(("signals/release_grip_force_n", rr.SeriesPoints(names=["release (F_G at release)"],
+                                                                colors=[(255, 40, 40)], markers=["cross"],
+                                                                marker_sizes=[8.0])))
+    out.append(("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP))
+    return out
+
+
+def blueprint(robot_name: str | None) -> rrb.Blueprint:
+    """3-D view, signal panels and event log (sent once at the start of a recording)."""
+    overrides = {f"{robot_name}/collision_geometries": rrb.EntityBehavior(visible=False)} if robot_name else {}
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Vertical(
+                rrb.Spatial3DView(name="Handover (base frame)", origin="/", overrides=overrides,
+                                  contents=["+ /**", "- /bus/**", "- /signals/**", "- /robot/**",
+                                            "- /camera/**", "- /events"]),
+                rrb.TextLogView(name="Events", origin="/events"),
+                row_shares=[3, 1],
+            ),
+            rrb.Vertical(
+                rrb.TimeSeriesView(name="Grip force (N)", origin="/", contents=[
+                    "/bus/gripper/command/grip_force_n", "/bus/gripper/state/measured_grip_force_n",
+                    "/signals/release_grip_force_n"]),
+                rrb.TimeSeriesView(name="Wrist force F_sx, F_sy (N)", origin="/", contents=[
+                    "/bus/sensors/wrist_wrench/force_n/0", "/bus/sensors/wrist_wrench/force_n/1"]),
+                rrb.TimeSeriesView(name="Object: a_y (m/s²), slip velocity (m/s)", origin="/", contents=[
+                    "/bus/sensors/object_motion/accel_y_m_s2", "/bus/sensors/object_motion/velocity_m_s/1"]),
+                rrb.TimeSeriesView(name="Gripper mode", origin="/signals/gripper_mode"),
+                rrb.TimeSeriesView(name="Joint positions (rad)", origin="/robot/joint_position"),
+            ),
+            column_shares=[3, 2],
+        ),
+        rrb.BlueprintPanel(state="collapsed"),
+        rrb.SelectionPanel(state="collapsed"),
+        rrb.TimePanel(timeline=TIMELINE_STAMP, state="expanded"),
+    )

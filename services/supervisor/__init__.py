@@ -1,0 +1,1 @@
+"""Supervisor: sequences the handover, enforces the release interrupt, watches the services."""

@@ -1,0 +1,137 @@
+"""Bus wiring of the supervisor: everything in, motion goals / stops / state / summaries out.
+
+The loop sleeps on the bus between 100 Hz ticks (`node.wait`), so a release event is acted
+on as soon as it arrives (the stop goes out before anything else is looked at), not at the
+next tick. Liveliness changes arrive on a Zenoh thread and are queued; heartbeats and the
+watched data streams are drained every wake-up. All decisions are in `core.Sequencer` and
+`watchdog.Watchdog`.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import time
+from bus_schema import topics
+from robot_sim.baxter import RIGHT_ARM_HOME_RAD
+from services.runtime import Profile, ServiceNode, kv
+from services.runtime.liveliness import LivelinessWatcher
+from services.supervisor.config import SupervisorConfig
+from services.supervisor.core import Actions, Sequencer, Snapshot
+from services.supervisor.watchdog import Watchdog
+
+log = logging.getLogger(__name__)
+
+SERVICE_NAME = "supervisor"
+#: Data streams whose silence means their service is silent (topic → owner).
+WATCHED_STREAMS = {
+    topics.JOINT_STATE.suffix: "bridge",
+    topics.GRIPPER_STATE.suffix: "gripper",
+    topics.MOTION_STATUS.suffix: "motion",
+}
+#: supervisor/state is published at least this often, s.
+STATE_PERIOD_S = 0.05
+
+
+def watched_services(profile: Profile) -> list[str]:
+    """Every service of the profile except the supervisor itself."""
+    return [spec.name for spec in profile.services if spec.name != SERVICE_NAME]
+
+
+def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
+    """Run the supervisor until SIGINT/SIGTERM (or, with a finite episode count, until the
+    last episode ended and the launcher stops it). Returns the exit code."""
+    services = watched_services(profile)
+    watchdog = Watchdog(services, config.heartbeat_timeout_s, config.stream_timeout_s,
+                        {s: o for s, o in WATCHED_STREAMS.items() if o in services})
+    sequencer = Sequencer(config, RIGHT_ARM_HOME_RAD)
+    liveliness_events: queue.SimpleQueue[tuple[str, bool, float]] = queue.SimpleQueue()
+    with ServiceNode(SERVICE_NAME, profile) as node:
+        goal_pub = node.publisher(topics.MOTION_GOAL)
+        stop_pub = node.publisher(topics.MOTION_STOP)
+        state_pub = node.publisher(topics.SUPERVISOR_STATE)
+        episode_pub = node.publisher(topics.EPISODE)
+        releases = node.subscribe(topics.GRIPPER_RELEASE, queue_size=16)
+        subs = {name: node.subscribe(t, queue_size=q) for name, t, q in (
+            ("human", topics.HUMAN, 8), ("obj", topics.OBJECT, 8), ("target", topics.TRANSFER, 8),
+            ("motion", topics.MOTION_STATUS, 64), ("gripper", topics.GRIPPER_STATE, 64),
+            ("wrench", topics.WRIST_WRENCH, 64), ("joints", topics.JOINT_STATE, 64),
+        )}
+        heartbeats = node.subscribe(topics.HEARTBEAT, queue_size=512)
+        watcher = LivelinessWatcher(node.session, profile.prefix,
+                                    on_change=lambda n, a: liveliness_events.put((n, a, time.monotonic())))
+        snap = Snapshot(now_s=time.monotonic())
+        ready_since: float | None = None
+        started_s = time.monotonic()
+        last_state_s = -1.0
+
+        def act(actions: Actions, now_s: float) -> None:
+            nonlocal last_state_s
+            if actions.stop is not None:
+                stop_pub.put(**actions.stop)
+            if actions.goal is not None:
+                goal_pub.put(**actions.goal)
+                log.info("goal", extra=kv(**{k: v for k, v in actions.goal.items() if k in ("goal_id", "kind")}))
+            if actions.state_changed or now_s - last_state_s >= STATE_PERIOD_S:
+                state_pub.put(phase=sequencer.phase, episode_id=sequencer.episode_id,
+                              reason=sequencer.reason[:512], elapsed_s=min(sequencer.elapsed_s(now_s), 86400.0),
+                              grip_request=sequencer.grip_request)
+                last_state_s = now_s
+                if actions.state_changed:
+                    log.info("phase", extra=kv(phase=sequencer.phase, episode=sequencer.episode_id,
+                                               reason=sequencer.reason))
+            if actions.summary is not None:
+                episode_pub.put(**actions.summary)
+                log.info("episode summary", extra=kv(**{k: actions.summary[k] for k in ("episode_id", "outcome", "reason")}))
+
+        next_tick = time.monotonic()
+        try:
+            while not node.should_stop:
+                node.wait(max(0.0, next_tick - time.monotonic()))
+                now = time.monotonic()
+                # 1. The release interrupt first.
+                for rx in releases.drain():
+                    act(sequencer.on_release(rx.rx_monotonic, f"release event from {rx.msg.source}"), now)
+                # 2. Watchdog inputs.
+                while True:
+                    try:
+                        name, alive, at_s = liveliness_events.get_nowait()
+                    except queue.Empty:
+                        break
+                    watchdog.liveliness(name, alive, at_s)
+                for rx in heartbeats.drain():
+                    watchdog.heartbeat(rx.msg.source, rx.rx_monotonic)
+                for name, sub in subs.items():
+                    for rx in sub.drain():
+                        setattr(snap, name, rx.msg)
+                        if hasattr(snap, f"{name}_rx_s"):
+                            setattr(snap, f"{name}_rx_s", rx.rx_monotonic)
+                        watchdog.stream(sub.topic.suffix, rx.rx_monotonic)
+                for fault in watchdog.check(now):
+                    critical = config.watch.get(fault.service, "critical") == "critical"
+                    log.warning("service fault", extra=kv(service=fault.service, what=fault.what,
+                                                          detail=fault.detail, critical=critical,
+                                                          notice_latency_s=round(fault.noticed_s - fault.since_s, 4)))
+                    act(sequencer.on_fault(now, fault.text(), critical), now)
+                if now < next_tick:
+                    continue
+                next_tick += config.period_s
+                if next_tick < now:
+                    next_tick = now + config.period_s  # late: do not burst
+                # 3. Start when everyone is up.
+                if sequencer.phase == "idle" and sequencer.episode is None:
+                    if watchdog.all_alive():
+                        ready_since = ready_since or now
+                        if now - ready_since >= config.start_delay_s:
+                            act(sequencer.start_episode(now), now)
+                    elif now - started_s > config.start_timeout_s:
+                        sequencer.reason = f"services not alive: {', '.join(watchdog.missing())}"
+                        log.error("start failed", extra=kv(missing=watchdog.missing()))
+                # 4. The sequencer's tick.
+                snap.now_s = now
+                act(sequencer.tick(snap), now)
+        finally:
+            watcher.undeclare()
+        log.info("supervisor stopped", extra=kv(episodes=sequencer.episodes_done, phase=sequencer.phase))
+    return 0
+
