@@ -14,9 +14,11 @@ Phases of the object (`ObjectPhase`):
   `robot_sim.contact.ContactPlant` runs the object between the pads (gravity, friction, the
   gripper's spring and 25 Hz loop, the sensors) with the live gripper commands, first with
   no receiver.
-- The receiver watches the object: once the object is lifted and within the receiver's reach
-  plus `reach_trigger_margin_m` of the receiving shoulder, the hand reaches for it
-  (minimum-jerk over `reach_duration_s`, re-aimed at the moving object). When the hand has
+- The receiver watches the object: once the robot presents the lifted object in front of
+  them (within `presentation_half_width_m` of the receiving shoulder's vertical x–z plane,
+  the task plane, and within the receiver's reach plus `reach_trigger_margin_m` of that
+  shoulder), the hand reaches for it (minimum-jerk over `reach_duration_s`, re-aimed at the
+  moving object). When the hand has
   arrived and the tool is at rest, the contact begins: the plant's receiver becomes the
   configured behaviour (taking, dropping, bumping, hesitating) on the plant's clock, with
   its reach already done. From then on the hand is the plant's hand.
@@ -68,10 +70,14 @@ class SceneParams:
         grasp_tolerance_m: the fingers close on the object only within this distance, m.
         grasp_min_force_n: grip command that counts as closing the fingers, N.
         tool_rest_speed_m_s: tool speed below which the tool counts as at rest, m/s.
-        reach_trigger_margin_m: the receiver reaches once the lifted object is within its arm
-            reach plus this margin of its receiving shoulder, m.
+        reach_trigger_margin_m: the receiver reaches once the presented object is within its
+            arm reach plus this margin of its receiving shoulder, m.
+        presentation_half_width_m: the object counts as presented within this distance
+            (along base y) of the receiving shoulder's x–z plane, m.
         reach_duration_s: duration of the receiver's reach, s.
-        contact_distance_m: the hand touches the object within this distance, m.
+        contact_distance_m: the hand touches the object within this distance, m. The simulated
+            body does not lean: a transfer point a few cm beyond its straight arm (the planner
+            assumes a 0.04·H lean) is still reached by the fingers.
         lift_clearance_m: the object counts as lifted this far above its table position, m.
     """
 
@@ -88,9 +94,10 @@ class SceneParams:
     grasp_tolerance_m: float = 0.04
     grasp_min_force_n: float = 2.0
     tool_rest_speed_m_s: float = 0.05
-    reach_trigger_margin_m: float = 0.15
+    reach_trigger_margin_m: float = 0.25
+    presentation_half_width_m: float = 0.15
     reach_duration_s: float = 1.0
-    contact_distance_m: float = 0.03
+    contact_distance_m: float = 0.06
     lift_clearance_m: float = 0.05
 
 
@@ -219,8 +226,10 @@ class HandoverScene:
             return
         if self.receiver_phase == "resting":
             lifted = self.object_m[2] >= p.object_start_base_m[2] + p.lift_clearance_m
-            reach = self.body.reach_m + p.reach_trigger_margin_m
-            if lifted and np.linalg.norm(self.object_m - self.receiving_shoulder_m) <= reach:
+            shoulder = self.receiving_shoulder_m
+            presented = abs(float(self.object_m[1] - shoulder[1])) <= p.presentation_half_width_m
+            near = float(np.linalg.norm(self.object_m - shoulder)) <= self.body.reach_m + p.reach_trigger_margin_m
+            if lifted and presented and near:
                 self.receiver_phase = "reaching"
                 self._reach_start_hand_m = self.hand_m.copy()
                 self._reach_elapsed_s = 0.0
@@ -230,8 +239,8 @@ class HandoverScene:
         s, _ = min_jerk(self._reach_elapsed_s, 0.0, p.reach_duration_s)
         wanted = self._reach_start_hand_m + float(s) * (self.object_m - self._reach_start_hand_m)
         self.hand_m = self.body.joints(wanted)["right_hand"]  # as far as the arm reaches
-        arrived = np.linalg.norm(self.hand_m - self.object_m) <= p.contact_distance_m
-        if arrived and self._reach_elapsed_s >= p.reach_duration_s and tool_speed_m_s <= p.tool_rest_speed_m_s:
+        reached = np.linalg.norm(self.hand_m - self.object_m) <= p.contact_distance_m
+        if reached and self._reach_elapsed_s >= p.reach_duration_s and tool_speed_m_s <= p.tool_rest_speed_m_s:
             assert self.plant is not None
             self.plant.replace_receiver(self._behaviour_at(self.plant.time_s))
             self.receiver_phase = "contact"

@@ -38,12 +38,21 @@ def _run(args: argparse.Namespace) -> int:
     profile = profile.with_bus(endpoint, args.prefix)
     cfg = profile.launcher
     options = LaunchOptions(
-        job=args.job or str(cfg.get("job", "demo")),
+        job=args.job or str(cfg.get("job", "handover")),
         run_id=args.run_id or time.strftime("%Y%m%d-%H%M%S"),
         recording_dir=Path(args.recording_dir or cfg.get("recording_dir", "recordings")),
         alive_timeout_s=float(args.alive_timeout_s or cfg.get("alive_timeout_s", 30.0)),
         term_timeout_s=float(cfg.get("term_timeout_s", 5.0)),
+        receiver=args.receiver,
+        posture=args.posture,
+        episodes=args.episodes,
+        seed=args.seed,
+        episode_timeout_s=float(cfg.get("episode_timeout_s", 90.0)),
     )
+    if options.episodes is not None and not 0 <= options.episodes <= 100000:
+        raise LauncherError("--episodes must be within 0–100000 (0: until Ctrl-C)")
+    if options.seed is not None and not 0 <= options.seed < 2**32:
+        raise LauncherError("--seed must be within 0–4294967295")
     if not 0 < options.alive_timeout_s <= 600:
         raise LauncherError("--alive-timeout-s must be within (0, 600] s")
     return Launcher(profile, options).run()
@@ -57,8 +66,17 @@ def main(argv: list[str] | None = None) -> int:
         "shut everything down in order on Ctrl-C. Leaves one Rerun recording per run.",
     )
     parser.add_argument("--job", choices=JOBS, default=None,
-                        help="demo: joint-space demo with a summary (default); check: exit once all "
-                             "services are alive; none: run until Ctrl-C")
+                        help="handover: run the supervisor's handover episodes and print a summary "
+                             "(default); demo: joint-space demo; check: exit once all services are "
+                             "alive; none: run until Ctrl-C")
+    scene = parser.add_argument_group("the simulated handover (sim profile)")
+    scene.add_argument("--receiver", choices=["taking", "dropping", "bumping", "hesitating", "absent"],
+                       default=None, help="the receiver's behaviour (default: the profile's, taking)")
+    scene.add_argument("--posture", choices=["standing", "sitting"], default=None,
+                       help="the receiver's posture (default: the profile's, standing)")
+    scene.add_argument("--episodes", type=int, default=None,
+                       help="handover episodes to run (default: the profile's, 1; 0: until Ctrl-C)")
+    scene.add_argument("--seed", type=int, default=None, help="seed of the simulation's noise")
     parser.add_argument("--port", default=None,
                         help="bus port on 127.0.0.1, or 'auto' for a free one (overrides --endpoint)")
     parser.add_argument("--run-id", default=None, help="name of this run (default: the start time)")

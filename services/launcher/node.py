@@ -3,8 +3,9 @@
 1. Open the Zenoh router in this process on the profile's loopback endpoint.
 2. Start the enabled services (recorder first) as child processes, output prefixed ``[name]``.
 3. Wait for every liveliness token (time-out names the services that did not come up).
-4. Run the job (``demo``: joint-space demo; ``check``: stop once all are alive; ``none``: run
-   until Ctrl-C) while a monitor thread watches the children and their liveliness.
+4. Run the job (``handover``: follow the supervisor's handover episodes and report them;
+   ``demo``: joint-space demo; ``check``: stop once all are alive; ``none``: run until
+   Ctrl-C) while a monitor thread watches the children and their liveliness.
 5. Shut down in order: SIGINT, SIGTERM after `term_timeout_s`, SIGKILL after as long again.
 
 Exit codes: 0 job succeeded; 1 a service failed or the job failed; 2 bad input (profile,
@@ -33,7 +34,7 @@ from services.runtime import LivelinessWatcher, Profile, ServiceNode, open_sessi
 from services.runtime.errors import BusError, ServiceError
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
-JOBS = ("demo", "check", "none")
+JOBS = ("handover", "demo", "check", "none")
 
 
 class LauncherError(ServiceError):
@@ -49,18 +50,38 @@ class LaunchOptions:
     """What `handover-up` was asked to do.
 
     Attributes:
-        job: ``demo``, ``check`` or ``none``.
+        job: ``handover``, ``demo``, ``check`` or ``none``.
         run_id: name of this run (recording file name).
         recording_dir: where the recorder writes.
         alive_timeout_s: every service must be alive within this time, s.
         term_timeout_s: SIGINT → SIGTERM and SIGTERM → SIGKILL delays, s.
     """
 
-    job: str = "demo"
+    job: str = "handover"
     run_id: str = field(default_factory=lambda: time.strftime("%Y%m%d-%H%M%S"))
     recording_dir: Path = Path("recordings")
     alive_timeout_s: float = 30.0
     term_timeout_s: float = 5.0
+    receiver: str | None = None
+    posture: str | None = None
+    episodes: int | None = None
+    seed: int | None = None
+    episode_timeout_s: float = 90.0
+
+    def service_args(self, name: str) -> list[str]:
+        """Command-line overrides for service `name` (receiver, posture, seed → the bridge;
+        episodes → the supervisor)."""
+        args: list[str] = []
+        if name == "bridge":
+            if self.receiver is not None:
+                args += ["--receiver", self.receiver]
+            if self.posture is not None:
+                args += ["--posture", self.posture]
+            if self.seed is not None:
+                args += ["--seed", str(self.seed)]
+        if name == "supervisor" and self.episodes is not None:
+            args += ["--episodes", str(self.episodes)]
+        return args
 
 
 class Launcher:
@@ -89,7 +110,7 @@ class Launcher:
         if name == RECORDER:
             self.recording = recording_path(self.options.recording_dir, self.options.run_id, attempt)
             return ["--output", str(self.recording)]
-        return []
+        return self.options.service_args(name)
 
     def _start(self, name: str) -> Child:
         spec = next(s for s in self.specs if s.name == name)
@@ -228,10 +249,42 @@ class Launcher:
             return "interrupted"
         return None
 
+    def _episodes(self) -> int:
+        if self.options.episodes is not None:
+            return self.options.episodes
+        return int(self.profile.service_config("supervisor").get("episodes", 1))
+
+    def _run_handover(self) -> int:
+        from services.launcher.handover_job import run_handover_job
+
+        if not any(s.name == "supervisor" for s in self.specs):
+            raise LauncherError("the handover job needs a supervisor service in the profile "
+                                "([services.supervisor]); use --job demo or check without one")
+        episodes = self._episodes()
+        self.episode_running = True
+        with ServiceNode("launcher", self.profile, install_signal_handlers=False) as node:
+            stopper = threading.Thread(target=lambda: (self.stop_requested.wait(), node.request_stop()),
+                                       daemon=True)
+            stopper.start()
+            say(f"job: handover ({episodes or 'unlimited'} episode{'s' if episodes != 1 else ''})")
+            result = run_handover_job(node, episodes, self._abort_reason, say, self.options.episode_timeout_s)
+        self.episode_running = False
+        if self.interrupted:
+            return EXIT_INTERRUPTED
+        if not result.ok:
+            if not self.failure:
+                self._fail(result.message)
+            return EXIT_FAILED
+        outcomes = ", ".join(r.summary.outcome for r in result.reports)
+        say(f"summary: {len(result.reports)} episode(s): {outcomes}; object never dropped")
+        return EXIT_OK
+
     def _run_job(self) -> int:
         job = self.options.job
         if job == "check":
             return EXIT_OK
+        if job == "handover":
+            return self._run_handover()
         if job == "none":
             say("stack running; press Ctrl-C to stop")
             self.stop_requested.wait()

@@ -44,18 +44,35 @@ def static_styles() -> list[tuple[str, Any]]:
                                                                 colors=[(255, 40, 40)], markers=["cross"],
                                                                 marker_sizes=[8.0])))
     out.append(("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP))
+    # The URDF's links live in named frames under `base`; the points under /world are in
+    # Baxter's base frame too: join the two trees (identity) so one 3-D view shows both.
+    out.append(("frames/base", rr.Transform3D(parent_frame="tf#/", child_frame="base")))
     return out
 
 
-def blueprint(robot_name: str | None) -> rrb.Blueprint:
-    """3-D view, signal panels and event log (sent once at the start of a recording)."""
-    overrides = {f"{robot_name}/collision_geometries": rrb.EntityBehavior(visible=False)} if robot_name else {}
+#: Default 3-D camera: from the robot's right (−y), the robot on the left, the receiver on the right.
+EYE_POSITION_M = (1.2, -2.3, 0.9)
+EYE_TARGET_M = (0.55, -0.35, 0.0)
+
+
+def blueprint(robot_name: str | None, follow_latest: bool = False) -> rrb.Blueprint:
+    """3-D view, signal panels and event log (sent once at the start of a recording).
+
+    `follow_latest`: the time cursor follows the newest data (the end of a recording); used
+    for screenshots. By default the viewer's own choice applies.
+    """
+    # Rerun 0.41 cannot import the arm's Collada meshes (polylist): the arm is drawn with its
+    # collision cylinders and boxes instead; collision meshes and spheres stay hidden.
+    overrides = {f"{robot_name}/collision_geometries/{kind}": rrb.EntityBehavior(visible=False)
+                 for kind in ("mesh", "sphere")} if robot_name else {}
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(
                 rrb.Spatial3DView(name="Handover (base frame)", origin="/", overrides=overrides,
                                   contents=["+ /**", "- /bus/**", "- /signals/**", "- /robot/**",
-                                            "- /camera/**", "- /events"]),
+                                            "- /camera/**", "- /events"],
+                                  eye_controls=rrb.EyeControls3D(position=EYE_POSITION_M, look_target=EYE_TARGET_M,
+                                                                 eye_up=(0.0, 0.0, 1.0))),
                 rrb.TextLogView(name="Events", origin="/events"),
                 row_shares=[3, 1],
             ),
@@ -74,5 +91,6 @@ def blueprint(robot_name: str | None) -> rrb.Blueprint:
         ),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
-        rrb.TimePanel(timeline=TIMELINE_STAMP, state="expanded"),
+        rrb.TimePanel(timeline=TIMELINE_STAMP, state="expanded",
+                      play_state="following" if follow_latest else None),
     )

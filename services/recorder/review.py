@@ -81,4 +81,4 @@ class ReviewState:
             return None
         self.tool_path.changed = False
         strips = [self.tool_path.points] if len(self.tool_path.points) >= 2 else []
-        return ("world/tool_path", rr.LineStrips3D(strips, radii=0.004, colors=[(60, 120, 255)]))
+        return ("world/tool_path", rr.LineStrips3D(strips, radii=0.007, colors=[(60, 120, 255)]))

@@ -51,7 +51,8 @@ class SupervisorConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
         replan_threshold_m: a new transfer target farther than this from the current reach
             goal starts a new reach.
         max_replans: new reach goals allowed per episode.
-        heartbeat_timeout_s: a watched service whose heartbeat is older than this is silent.
+        heartbeat_timeout_s: a watched service whose heartbeat (20 Hz) is older than this is
+            silent: noticed at most 0.2 s after the first missing beat.
         stream_timeout_s: a watched data stream (joint state, gripper state, motion status)
             older than this means its service is silent.
         watch: what a lost or silent service means: ``critical`` → protective stop,
@@ -80,7 +81,7 @@ class SupervisorConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
     human_return_s: Seconds = 3.0
     replan_threshold_m: Annotated[float, Meta(gt=0.0, le=2.0)] = 0.05
     max_replans: Annotated[int, Meta(ge=0, le=100)] = 3
-    heartbeat_timeout_s: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.2
+    heartbeat_timeout_s: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.25
     stream_timeout_s: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.15
     watch: dict[str, Watch] = msgspec.field(default_factory=lambda: {"recorder": "report"})
 

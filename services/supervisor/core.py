@@ -36,6 +36,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+import msgspec
 import numpy as np
 
 from bus_schema.messages import (
@@ -55,8 +56,40 @@ HUMAN_FRESH_S = 0.5
 OBJECT_FRESH_S = 1.0
 #: A transfer target counts as current for this long (the planner republishes at 5 Hz), s.
 TARGET_FRESH_S = 1.0
+#: A moved target only starts a new reach before this fraction of the reach: later the arm
+#: is near the receiver's hand, where the motion service caps the speed, and the receiver's
+#: own hand closes the remaining gap.
+REPLAN_BEFORE_PROGRESS = 0.5
 #: Once a stop is confirmed, it is still repeated this often (s): a stop is never let go of.
 STOP_KEEPALIVE_S = 0.5
+
+
+class TargetFilter:
+    """The planner's transfer target, steadied: the component-wise median of the targets
+    received over the last `window_s` seconds. The DJT optimum moves a few cm from frame to
+    frame with the tracker's body estimates; a median keeps that noise from looking like a
+    receiver who moved (which would start a new reach).
+
+    Args:
+        window_s: length of the median window, s.
+    """
+
+    def __init__(self, window_s: float = 1.0) -> None:
+        self.window_s = window_s
+        self._items: list[tuple[float, TransferTarget]] = []
+
+    def offer(self, target: TransferTarget, rx_s: float) -> None:
+        self._items.append((rx_s, target))
+
+    def current(self, now_s: float) -> TransferTarget | None:
+        """The latest target with its position replaced by the window's median (None when
+        nothing was received within the window)."""
+        self._items = [(t, m) for t, m in self._items if now_s - t <= self.window_s]
+        if not self._items:
+            return None
+        latest = self._items[-1][1]
+        median = np.median(np.array([m.position_base_m for _, m in self._items]), axis=0)
+        return msgspec.structs.replace(latest, position_base_m=tuple(float(v) for v in median))
 
 
 @dataclass
@@ -415,8 +448,9 @@ class Sequencer:
             self._retract(now, f"reach took longer than {cfg.reach_timeout_s:g} s", "failed", "carry", actions)
             return
         t = snap.target
+        early = snap.motion is not None and snap.motion.goal_id == ep.goal_id and snap.motion.progress < REPLAN_BEFORE_PROGRESS
         if (t is not None and ep.reach_position_m is not None and now - snap.target_rx_s <= TARGET_FRESH_S
-                and ep.replans < cfg.max_replans
+                and early and ep.replans < cfg.max_replans
                 and float(np.linalg.norm(np.array(t.position_base_m) - ep.reach_position_m)) > cfg.replan_threshold_m):
             ep.replans += 1
             self._send_reach(snap, t, actions, f"receiver moved: re-plan {ep.replans}")

@@ -17,7 +17,7 @@ from robot_sim.baxter import RIGHT_ARM_HOME_RAD
 from services.runtime import Profile, ServiceNode, kv
 from services.runtime.liveliness import LivelinessWatcher
 from services.supervisor.config import SupervisorConfig
-from services.supervisor.core import Actions, Sequencer, Snapshot
+from services.supervisor.core import Actions, Sequencer, Snapshot, TargetFilter
 from services.supervisor.watchdog import Watchdog
 
 log = logging.getLogger(__name__)
@@ -61,6 +61,7 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
         watcher = LivelinessWatcher(node.session, profile.prefix,
                                     on_change=lambda n, a: liveliness_events.put((n, a, time.monotonic())))
         snap = Snapshot(now_s=time.monotonic())
+        targets = TargetFilter()
         ready_since: float | None = None
         started_s = time.monotonic()
         last_state_s = -1.0
@@ -106,6 +107,8 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                         setattr(snap, name, rx.msg)
                         if hasattr(snap, f"{name}_rx_s"):
                             setattr(snap, f"{name}_rx_s", rx.rx_monotonic)
+                        if name == "target":
+                            targets.offer(rx.msg, rx.rx_monotonic)
                         watchdog.stream(sub.topic.suffix, rx.rx_monotonic)
                 for fault in watchdog.check(now):
                     critical = config.watch.get(fault.service, "critical") == "critical"
@@ -129,6 +132,7 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                         log.error("start failed", extra=kv(missing=watchdog.missing()))
                 # 4. The sequencer's tick.
                 snap.now_s = now
+                snap.target = targets.current(now)
                 act(sequencer.tick(snap), now)
         finally:
             watcher.undeclare()

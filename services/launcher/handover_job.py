@@ -1,0 +1,128 @@
+"""The handover job of `handover-up`: follow the supervisor's episodes and report them.
+
+The supervisor (a service of the profile) runs the episodes by itself; this job listens to
+`supervisor/state` (prints every phase change), `supervisor/episode` (the summaries) and, in
+simulation, `sim/truth` (where the object really is: never used for control, only to report
+honestly whether it was dropped and who holds it at the end).
+
+The job succeeds when every episode ended safely: released to the receiver, or a safe
+``timeout``/``aborted`` (the robot kept the object), and the object was never dropped. A
+``failed`` episode, a protective stop or a dropped object fails the job (exit 1) with the
+reason on one line.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+from bus_schema import topics
+from bus_schema.messages import EpisodeSummary, SimTruth, SupervisorState
+from services.runtime import ServiceNode
+
+SAFE_OUTCOMES = ("released", "timeout", "aborted")
+
+
+@dataclass
+class EpisodeReport:
+    """One finished episode as the job saw it."""
+
+    summary: EpisodeSummary
+    dropped: bool
+    final_holder: str | None
+    lines: list[str]
+
+    @property
+    def ok(self) -> bool:
+        return self.summary.outcome in SAFE_OUTCOMES and not self.dropped
+
+
+@dataclass
+class EpisodeWatch:
+    """Turns bus messages into progress lines and episode reports (no I/O)."""
+
+    reports: list[EpisodeReport] = field(default_factory=list)
+    _phase: tuple[int, str, str] | None = None
+    _dropped: dict[int, bool] = field(default_factory=dict)
+    _holder: str | None = None
+    _episode: int = 0
+
+    def state(self, msg: SupervisorState) -> str | None:
+        """A line when the phase (or its reason) changed, else None."""
+        key = (msg.episode_id, msg.phase, msg.reason)
+        if key == self._phase:
+            return None
+        self._phase = key
+        self._episode = msg.episode_id
+        return f"episode {msg.episode_id}: {msg.phase}" + (f" ({msg.reason})" if msg.reason else "")
+
+    def truth(self, msg: SimTruth) -> None:
+        self._holder = msg.held_by
+        if msg.dropped:
+            self._dropped[self._episode] = True
+
+    def summary(self, msg: EpisodeSummary) -> EpisodeReport:
+        dropped = self._dropped.get(msg.episode_id, False)
+        lines = [f"episode {msg.episode_id}: {msg.outcome.upper()}: {msg.reason}"]
+        if msg.transfer_point_base_m is not None:
+            x, y, z = msg.transfer_point_base_m
+            lines.append(f"  transfer point (base frame): x {x:+.3f}  y {y:+.3f}  z {z:+.3f} m "
+                         f"({msg.receiver_posture} receiver)")
+        if self._holder is not None:
+            where = {"receiver": "in the receiver's hand", "gripper": "in the gripper", "both": "held by both",
+                     "table": "on the table", "none": "held by nobody"}.get(self._holder, self._holder)
+            lines.append(f"  object (sim truth): {where}; " + ("DROPPED during the episode" if dropped else "never dropped"))
+        lines.append(f"  grip: peak {msg.peak_grip_force_n:.1f} N, overshoot {msg.force_overshoot_n:.1f} N"
+                     + (f"; release → arm at rest {msg.release_to_stop_s * 1000:.0f} ms" if msg.outcome == "released" else ""))
+        if msg.phase_durations_s:
+            lines.append("  phases: " + ", ".join(f"{k} {v:.2f} s" for k, v in msg.phase_durations_s.items()))
+        if msg.replans:
+            lines.append(f"  re-plans: {msg.replans}")
+        if msg.faults:
+            lines.append("  faults: " + "; ".join(msg.faults))
+        report = EpisodeReport(msg, dropped, self._holder, lines)
+        self.reports.append(report)
+        return report
+
+
+@dataclass
+class JobResult:
+    ok: bool
+    message: str = ""
+    reports: list[EpisodeReport] = field(default_factory=list)
+
+
+def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[], str | None],
+                     say: Callable[[str], None], episode_timeout_s: float = 90.0) -> JobResult:
+    """Follow `episodes` episodes (0: until aborted); print progress with `say`."""
+    watch = EpisodeWatch()
+    states = node.subscribe(topics.SUPERVISOR_STATE, queue_size=256)
+    summaries = node.subscribe(topics.EPISODE, queue_size=64)
+    truth = node.subscribe(topics.SIM_TRUTH, queue_size=1024)
+    last_progress = time.monotonic()
+    while True:
+        node.wait(0.05)
+        for rx in truth.drain():
+            watch.truth(rx.msg)
+        for rx in states.drain():
+            line = watch.state(rx.msg)
+            if line is not None:
+                say(line)
+                last_progress = time.monotonic()
+        for rx in summaries.drain():
+            report = watch.summary(rx.msg)
+            for line in report.lines:
+                say(line)
+            last_progress = time.monotonic()
+            if not report.ok:
+                why = "the object was dropped" if report.dropped else f"{report.summary.outcome}: {report.summary.reason}"
+                return JobResult(False, f"episode {report.summary.episode_id}: {why}", watch.reports)
+            if episodes and len(watch.reports) >= episodes:
+                return JobResult(True, "", watch.reports)
+        reason = abort_reason()
+        if reason is not None:
+            return JobResult(False, reason, watch.reports)
+        if not math.isinf(episode_timeout_s) and time.monotonic() - last_progress > episode_timeout_s:
+            return JobResult(False, f"no progress from the supervisor for {episode_timeout_s:.0f} s", watch.reports)
