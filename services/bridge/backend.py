@@ -103,6 +103,11 @@ class SimBackend:
         return None
 
 
+def _sim_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
+    """The keyword arguments a simulated arm takes (the hardware-only ones dropped)."""
+    return {k: kwargs[k] for k in ("time_constant_s", "initial_position_rad") if k in kwargs}
+
+
 def make_backend(name: str, contact: Any = None, kinect: Any = None, **kwargs: Any) -> Backend:
     """Backend by name (``sim``); with `contact` enabled, the sim runs the contact plant
     (``transfer`` scenario) or the whole handover scene (``handover``, with the receiver's
@@ -119,7 +124,7 @@ def make_backend(name: str, contact: Any = None, kinect: Any = None, **kwargs: A
                                  pull_angle_deg=contact.pull_angle_deg, object_mass_kg=contact.object_mass_kg,
                                  mu_static=contact.mu_static, mu_kinetic=contact.mu_kinetic, seed=contact.seed,
                                  **body)
-            return HandoverSimBackend(params, **kwargs)
+            return HandoverSimBackend(params, **_sim_kwargs(kwargs))
         if contact is not None and contact.enabled:
             from services.bridge.contact_backend import ContactSimBackend
 
@@ -127,8 +132,8 @@ def make_backend(name: str, contact: Any = None, kinect: Any = None, **kwargs: A
                 behaviour=contact.behaviour, pull_angle_deg=contact.pull_angle_deg,
                 object_mass_kg=contact.object_mass_kg, mu_static=contact.mu_static,
                 mu_kinetic=contact.mu_kinetic, initial_grip_force_n=contact.initial_grip_force_n,
-                seed=contact.seed, receiver=dict(contact.receiver), **kwargs)
-        return SimBackend(**kwargs)
+                seed=contact.seed, receiver=dict(contact.receiver), **_sim_kwargs(kwargs))
+        return SimBackend(**_sim_kwargs(kwargs))
     if name == "baxter":
         # The real robot: needs the profile (its router carries the ROS 1 topics) and the
         # [services.bridge.config.baxter] table; the sim-only keyword arguments do not apply.

@@ -51,8 +51,9 @@ def main(argv: list[str] | None = None) -> int:
         "holds the arm when no fresh command arrives within the time-out (200 ms), and "
         "rejects commands with unknown joints or out-of-limit values.",
     )
-    parser.add_argument("--backend", choices=["sim"], default=None,
-                        help="robot backend (overrides [services.bridge.config].backend)")
+    parser.add_argument("--backend", choices=["sim", "baxter"], default=None,
+                        help="robot backend (overrides [services.bridge.config].backend); baxter: the real "
+                             "robot through the Zenoh ROS 1 bridge (see also handover-bridge-baxter --dry-run)")
     parser.add_argument("--rate-hz", type=float, default=None,
                         help="joint-state rate in Hz (overrides the profile)")
     sim = parser.add_argument_group("contact simulation (sim backend)")

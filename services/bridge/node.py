@@ -32,7 +32,7 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
     initial = np.array(config.initial_position_rad) if config.initial_position_rad else None
     backend = backend or make_backend(
         config.backend, contact=config.contact, kinect=config.kinect, time_constant_s=config.servo_time_constant_s,
-        initial_position_rad=initial,
+        initial_position_rad=initial, profile=profile, baxter=config.baxter,
     )
     gate = CommandGate(backend.joint_names, backend.limits, config.command_timeout_s,
                        config.limit_tolerance_rad)
@@ -124,7 +124,7 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                     effort_nm=reading.effort_nm.tolist(),
                     holding=holding,
                     backend=backend.name,
-                    enabled=True,
+                    enabled=bool(getattr(backend, "enabled", True)),
                 )
                 backend.publish_extras(publish_extra)
                 if kinect is not None:

@@ -51,8 +51,8 @@ def static_styles() -> list[tuple[str, Any]]:
 
 
 #: Default 3-D camera: from the robot's right (−y), the robot on the left, the receiver on the right.
-EYE_POSITION_M = (1.2, -2.3, 0.9)
-EYE_TARGET_M = (0.55, -0.35, 0.0)
+EYE_POSITION_M = (2.9, -2.6, 1.6)
+EYE_TARGET_M = (0.6, -0.3, 0.1)
 
 
 def blueprint(robot_name: str | None, follow_latest: bool = False) -> rrb.Blueprint:
