@@ -69,8 +69,7 @@ def blueprint(robot_name: str | None, follow_latest: bool = False) -> rrb.Bluepr
         rrb.Horizontal(
             rrb.Vertical(
                 rrb.Spatial3DView(name="Handover (base frame)", origin="/", overrides=overrides,
-                                  contents=["+ /**", "- /bus/**", "- /signals/**", "- /robot/**",
-                                            "- /camera/**", "- /events"],
+                                  contents=["+ /world/**"] + ([f"+ /{robot_name}/**"] if robot_name else []),
                                   eye_controls=rrb.EyeControls3D(position=EYE_POSITION_M, look_target=EYE_TARGET_M,
                                                                  eye_up=(0.0, 0.0, 1.0))),
                 rrb.TextLogView(name="Events", origin="/events"),

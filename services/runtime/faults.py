@@ -9,6 +9,11 @@ The environment variable `HANDOVER_FAULTS` holds rules separated by ``;``, each
 Example: ``HANDOVER_FAULTS="gripper:gripper/release:delay=0.05;supervisor:motion/stop:drop=0.5"``.
 A rule for another service is ignored. Drops use a generator seeded from
 `HANDOVER_FAULTS_SEED` (default 0), so a fault run is repeatable.
+
+With `HANDOVER_FAULTS_ARM_DIR=<dir>` a rule only acts while the file
+``<dir>/<service>.<topic suffix with / as .>`` exists (`arm_file_name`), so a test can
+open and close a fault window at a chosen handover phase; without it the rules act from
+the start.
 """
 
 from __future__ import annotations
@@ -25,7 +30,15 @@ from services.runtime.errors import ProfileError
 
 ENV_VAR = "HANDOVER_FAULTS"
 SEED_ENV_VAR = "HANDOVER_FAULTS_SEED"
+ARM_DIR_ENV_VAR = "HANDOVER_FAULTS_ARM_DIR"
 MAX_DELAY_S = 10.0
+#: An armed rule looks for its arm file at most this often, s.
+ARM_CHECK_PERIOD_S = 0.005
+
+
+def arm_file_name(service: str, suffix: str) -> str:
+    """Name of the file that arms `service`'s rule on `suffix` (in `HANDOVER_FAULTS_ARM_DIR`)."""
+    return f"{service}.{suffix.replace('/', '.')}"
 
 
 @dataclass(frozen=True)
@@ -80,12 +93,32 @@ class FaultyPut:
         self._rng = random.Random(int(os.environ.get(SEED_ENV_VAR, "0")) if seed is None else seed)
         self.dropped = 0
         self.delayed = 0
+        arm_dir = os.environ.get(ARM_DIR_ENV_VAR, "")
+        self._arm_path = os.path.join(arm_dir, arm_file_name(rule.service, rule.suffix)) if arm_dir else None
+        self._armed = self._arm_path is None
+        self._armed_checked_s = -1.0
         self._queue: queue.Queue[tuple[float, bytes] | None] | None = None
         if rule.kind == "delay":
             self._queue = queue.Queue()
             threading.Thread(target=self._deliver, name=f"fault delay {rule.suffix}", daemon=True).start()
 
+    def active(self) -> bool:
+        """The rule acts now (always, unless an arm directory is set and its file is absent)."""
+        if self._arm_path is None:
+            return True
+        now = time.monotonic()
+        if now - self._armed_checked_s >= ARM_CHECK_PERIOD_S:
+            self._armed_checked_s = now
+            self._armed = os.path.exists(self._arm_path)
+        return self._armed
+
     def __call__(self, payload: bytes) -> None:
+        if not self.active():
+            if self._queue is not None and not self._queue.empty():
+                self._queue.put((time.monotonic(), payload))  # behind the delayed ones: order kept
+            else:
+                self._put(payload)
+            return
         if self.rule.kind == "drop":
             if self._rng.random() < self.rule.value:
                 self.dropped += 1

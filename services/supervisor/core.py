@@ -62,6 +62,10 @@ TARGET_FRESH_S = 1.0
 REPLAN_BEFORE_PROGRESS = 0.5
 #: Once a stop is confirmed, it is still repeated this often (s): a stop is never let go of.
 STOP_KEEPALIVE_S = 0.5
+#: A new goal leaves at least this long after the last stop (s): the motion service and the
+#: bridge apply a stop that reaches them together with (or just after) a goal to that goal,
+#: so a keep-alive stop sent right before the retract or a re-planned reach would cancel it.
+STOP_SETTLE_S = 0.1
 
 
 class TargetFilter:
@@ -236,9 +240,21 @@ class Sequencer:
             m = snap.motion
             self._stop_confirmed = m is not None and m.state in ("stopped", "idle", "failed") and self._at_rest(snap)
         period = STOP_KEEPALIVE_S if self._stop_confirmed else self.config.stop_repeat_s
+        if self._stop_confirmed and self._goal_imminent(snap.now_s):
+            return  # the arm is at rest and stopped: keep the next goal clear of a stop
         if snap.now_s - self._last_stop_s >= period:
             self._last_stop_s = snap.now_s
             actions.stop = {"reason": self._stop_reason, "protective": self._stop_protective}
+
+    def _goal_imminent(self, now_s: float) -> bool:
+        """A goal is due within `STOP_SETTLE_S` (the retract after the release dwell, or the
+        abort after the receiver was lost too long)."""
+        ep, cfg = self.episode, self.config
+        if self.phase == "released" and ep is not None and ep.at_rest_since_s is not None:
+            return now_s - ep.at_rest_since_s >= cfg.release_dwell_s - STOP_SETTLE_S
+        if self.phase == "hold":
+            return self.elapsed_s(now_s) >= cfg.human_return_s - STOP_SETTLE_S
+        return False
 
     def _finish(self, now_s: float, outcome: str, reason: str, actions: Actions) -> None:
         """End the episode: summary, phase done (or protective_stop/failed stays)."""
@@ -333,10 +349,14 @@ class Sequencer:
     # ------------------------------------------------------------------ the tick
     def tick(self, snap: Snapshot) -> Actions:
         """One sequencer step at `snap.now_s`."""
+        actions = self._tick_phase(snap)
+        if self.phase in ("released", "protective_stop", "hold") and actions.goal is None:
+            self._repeat_stop(snap, actions)  # after the phase's step: never with a new goal
+        return actions
+
+    def _tick_phase(self, snap: Snapshot) -> Actions:
         actions = Actions()
         now, cfg, ep = snap.now_s, self.config, self.episode
-        if self.phase in ("released", "protective_stop", "hold"):
-            self._repeat_stop(snap, actions)
         if ep is None or self.phase == "idle":
             return actions
         if self.phase in ("done", "failed"):
@@ -408,7 +428,8 @@ class Sequencer:
         ep, now = self.episode, snap.now_s
         assert ep is not None
         t = snap.target
-        if t is not None and now - snap.target_rx_s <= TARGET_FRESH_S and self._human_ok(snap):
+        settled = now - self._last_stop_s >= STOP_SETTLE_S  # after a hold: the stop is behind us
+        if t is not None and now - snap.target_rx_s <= TARGET_FRESH_S and self._human_ok(snap) and settled:
             self._send_reach(snap, t, actions, "reach to the DJT transfer point")
         elif self.elapsed_s(now) > self.config.plan_timeout_s:
             what = "no transfer target from the planner" if t is None or now - snap.target_rx_s > TARGET_FRESH_S \
@@ -488,7 +509,8 @@ class Sequencer:
                 ep.release_to_stop_s = max(0.0, snap.joints_rx_s - ep.release_s)
         else:
             ep.at_rest_since_s = None
-        if ep.at_rest_since_s is not None and now - ep.at_rest_since_s >= self.config.release_dwell_s:
+        if (ep.at_rest_since_s is not None and now - ep.at_rest_since_s >= self.config.release_dwell_s
+                and now - self._last_stop_s >= STOP_SETTLE_S):
             self._retract(now, "released to the receiver", "released", "open", actions)
 
     def _tick_retract(self, snap: Snapshot, actions: Actions) -> None:

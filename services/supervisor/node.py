@@ -23,11 +23,13 @@ from services.supervisor.watchdog import Watchdog
 log = logging.getLogger(__name__)
 
 SERVICE_NAME = "supervisor"
-#: Data streams whose silence means their service is silent (topic → owner).
+#: Data streams whose silence means their service is silent (topic → owner): fixed-rate
+#: streams of the services that touch the robot. The motion service's status pauses while it
+#: plans a reach (tens of ms), so the motion service is judged by its heartbeat, which its
+#: planner keeps sending.
 WATCHED_STREAMS = {
     topics.JOINT_STATE.suffix: "bridge",
     topics.GRIPPER_STATE.suffix: "gripper",
-    topics.MOTION_STATUS.suffix: "motion",
 }
 #: supervisor/state is published at least this often, s.
 STATE_PERIOD_S = 0.05

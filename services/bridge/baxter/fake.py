@@ -22,6 +22,17 @@ handover scene), driven the way Baxter drives its arm:
 - with ``publish_truth`` it also publishes the simulation's ``sim/truth`` on the bus (what
   really happened, for summaries and tests; a real robot has none).
 
+The full handover (``contact.scenario = "handover"``): the physics is the sim's
+`HandoverSimBackend` (object on the table, pick, the receiver's reach, the contact
+transfer). The receiver is not part of Baxter: on real hardware a Kinect driver publishes
+``perception/skeleton`` and ``perception/depth``. Here the fake plays that role too: with
+``kinect.enabled`` it runs the simulated Kinect (`KinectThread`, 30 Hz) on the scene's own
+receiver hand and object, so the skeleton the tracker sees and the hand that takes the
+object are the same hand, and adds the Kinect's ground truth to ``sim/truth``. It follows
+``supervisor/state``: a new ``episode_id`` puts the object back on the table and the
+receiver's hand at rest (the lab assistant resetting the scene). The Baxter backend itself
+knows nothing of this.
+
 Configuration: ``[services.fake_baxter.config]`` of the profile (see `FakeBaxterConfig`); the
 ROS topics and key format come from ``[services.bridge.config.baxter]`` so both sides agree.
 It joins the bus as the service ``fake_baxter`` (liveliness token, bus user ``fake_baxter``).
@@ -42,7 +53,7 @@ from msgspec import Meta
 
 from bus_schema import topics
 from robot_sim.baxter import RIGHT_ARM_JOINTS
-from services.bridge.backend import make_backend
+from services.bridge.backend import Backend, make_backend
 from services.bridge.baxter.config import BaxterConfig, parse_baxter_config
 from services.bridge.baxter.core import grip_force_from_percent, parse_gripper_args
 from services.bridge.baxter.errors import BaxterConfigError
@@ -61,7 +72,7 @@ from services.bridge.baxter.messages import (
     WrenchStamped,
 )
 from services.bridge.baxter.ros1 import Ros1DecodeError, Ros1Message, Time
-from services.bridge.config import ContactConfig
+from services.bridge.config import ContactConfig, KinectConfig
 from services.runtime import Profile, RateLimitedLog, ServiceNode, base_parser, kv, load_profile, run_main
 
 log = logging.getLogger(__name__)
@@ -89,6 +100,9 @@ class FakeBaxterConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
         gripper_force_full_scale_n: grip force at 100 % force setting, N (as the backend).
         object_mass_kg: static weight felt when the gripper is closed without contact plant.
         contact: the contact plant / handover scene (as ``[services.bridge.config.contact]``).
+        kinect: the simulated Kinect standing in for the Kinect driver (as
+            ``[services.bridge.config.kinect]``; its height and posture are also the scene
+            receiver's body).
         publish_truth: publish ``sim/truth`` on the bus.
     """
 
@@ -100,17 +114,30 @@ class FakeBaxterConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
     gripper_force_full_scale_n: Annotated[float, Meta(gt=0.0, le=1000.0)] = 140.0
     object_mass_kg: Annotated[float, Meta(ge=0.0, le=5.0)] = 0.2
     contact: ContactConfig = ContactConfig()
+    kinect: KinectConfig = KinectConfig()
     publish_truth: bool = True
+
+
+def make_physics(config: FakeBaxterConfig) -> Backend:
+    """The sim backend the fake moves with (arm servo; contact plant or handover scene)."""
+    return make_backend("sim", contact=config.contact, kinect=config.kinect,
+                        time_constant_s=config.servo_time_constant_s)
 
 
 class FakeBaxter:
     """The fake robot's state machine over an open bus node (see module docstring)."""
 
-    def __init__(self, node: ServiceNode, config: FakeBaxterConfig, baxter: BaxterConfig) -> None:
+    def __init__(self, node: ServiceNode, config: FakeBaxterConfig, baxter: BaxterConfig,
+                 physics: Backend | None = None) -> None:
         self.node = node
         self.config = config
         self.baxter = baxter
-        self.physics = make_backend("sim", contact=config.contact, time_constant_s=config.servo_time_constant_s)
+        self.physics = physics or make_physics(config)
+        # Only the handover scene has these (see services/bridge/handover_backend.py).
+        self._new_episode = getattr(self.physics, "new_episode", None)
+        self._scene_snapshot = getattr(self.physics, "scene_snapshot", None)
+        self.episode_id: int | None = None
+        self.scene_resets = 0
         self.enabled = config.enabled
         self.command_timeout_s = config.command_timeout_s
         self.grip_n = 0.0
@@ -145,6 +172,37 @@ class FakeBaxter:
         self._subs = [session.declare_subscriber(self.keys[name], self._callback(name, cls))
                       for name, cls in handlers.items()]
         self._truth_pub = node.publisher(topics.SIM_TRUTH) if config.publish_truth else None
+        self._supervisor = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16) if self._new_episode else None
+        self.kinect = None
+        if config.kinect.enabled:
+            from services.bridge.kinect_thread import KinectThread
+
+            self.kinect = KinectThread(config.kinect, node)
+            if not (config.contact.enabled and config.publish_truth):  # nobody else publishes sim/truth
+                self.kinect.publish_own_truth(node)
+            self._update_kinect()
+            self.kinect.start()
+
+    def _update_kinect(self) -> None:
+        """Hand the arm posture (and the scene's receiver hand and object) to the Kinect."""
+        if self.kinect is None:
+            return
+        q = self.physics.read().position_rad
+        if self._scene_snapshot is not None:
+            self.kinect.update_arm(q, *self._scene_snapshot())
+        else:
+            self.kinect.update_arm(q)
+
+    def _follow_episodes(self) -> None:
+        """A new supervisor episode resets the scene (object on the table, hand at rest)."""
+        if self._supervisor is None:
+            return
+        for rx in self._supervisor.drain():
+            if self.episode_id is not None and rx.msg.episode_id != self.episode_id:
+                log.info("new episode: scene reset", extra=kv(episode_id=rx.msg.episode_id))
+                self._new_episode()
+                self.scene_resets += 1
+            self.episode_id = rx.msg.episode_id
 
     # Zenoh thread: decode and queue only.
     def _callback(self, name: str, cls: type[Ros1Message]):
@@ -208,12 +266,14 @@ class FakeBaxter:
     def tick(self, dt_s: float) -> None:
         now_s = time.monotonic()
         self._handle(now_s)
+        self._follow_episodes()
         if not self.enabled or now_s - self._last_command_s > self.command_timeout_s:
             if self._following or not self.enabled:
                 self.physics.hold()
             self._following = False
         self.physics.step(dt_s)
         self._publish()
+        self._update_kinect()
 
     def _header(self, frame_id: str = "") -> Header:
         self._seq += 1
@@ -257,12 +317,16 @@ class FakeBaxter:
                 surface_quality=100 if motion["surface_valid"] else 0))
         truth = captured.get("sim/truth")
         if truth is not None and self._truth_pub is not None:
+            if self.kinect is not None:
+                truth = {**truth, **self.kinect.truth_fields()}
             self._truth_pub.put(**truth)
 
     def _put(self, name: str, msg: Ros1Message) -> None:
         self._pubs[name].put(msg.to_bytes())
 
     def close(self) -> None:
+        if self.kinect is not None:
+            self.kinect.stop()
         for entity in [*self._subs, *self._pubs.values()]:
             try:
                 entity.undeclare()
@@ -278,8 +342,11 @@ def parse_fake_config(table: dict[str, Any]) -> FakeBaxterConfig:
 
 
 def run_fake(profile: Profile, config: FakeBaxterConfig, baxter: BaxterConfig) -> int:
+    # Build the physics (URDF, scene) before joining the bus: once the liveliness token is up,
+    # the supervisor expects a heartbeat every 50 ms.
+    physics = make_physics(config)
     with ServiceNode(SERVICE_NAME, profile) as node:
-        fake = FakeBaxter(node, config, baxter)
+        fake = FakeBaxter(node, config, baxter, physics)
         log.info("fake baxter running", extra=kv(enabled=fake.enabled, rate_hz=config.rate_hz,
                                                  joint_states=fake.keys["joint_states"]))
         last_s = time.monotonic()
@@ -290,7 +357,9 @@ def run_fake(profile: Profile, config: FakeBaxterConfig, baxter: BaxterConfig) -
                 last_s = now_s
         finally:
             fake.close()
-            log.info("fake baxter stopped", extra=kv(commands=fake.commands, ignored=fake.ignored_commands))
+            log.info("fake baxter stopped", extra=kv(commands=fake.commands, ignored=fake.ignored_commands,
+                                                     scene_resets=fake.scene_resets,
+                                                     kinect_frames=fake.kinect.frames if fake.kinect else 0))
     return 0
 
 
@@ -301,6 +370,18 @@ def _run(args: argparse.Namespace) -> int:
         table["enabled"] = False
     if args.refuse_enable:
         table["refuse_enable"] = True
+    contact = dict(table.get("contact", {}))
+    if args.receiver:
+        contact["behaviour"] = args.receiver
+    if args.seed is not None:
+        contact["seed"] = args.seed
+    if contact:
+        table["contact"] = contact
+    kinect = dict(table.get("kinect", {}))
+    if args.posture:
+        kinect["posture"] = args.posture
+    if kinect:
+        table["kinect"] = kinect
     baxter = parse_baxter_config(profile.service_config("bridge").get("baxter", {}))
     return run_fake(profile, parse_fake_config(table), baxter)
 
@@ -313,6 +394,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.set_defaults(service_name=SERVICE_NAME)
     parser.add_argument("--disabled", action="store_true", help="start with the robot disabled")
     parser.add_argument("--refuse-enable", action="store_true", help="ignore enable requests")
+    scene = parser.add_argument_group("the simulated handover scene (contact.scenario = \"handover\")")
+    scene.add_argument("--receiver", choices=["taking", "dropping", "bumping", "hesitating", "absent"],
+                       default=None, help="the receiver's behaviour (default: the profile's)")
+    scene.add_argument("--posture", choices=["standing", "sitting"], default=None,
+                       help="the receiver's posture (default: the profile's)")
+    scene.add_argument("--seed", type=int, default=None, help="seed of the scene's noise")
     return run_main(_run, parser.parse_args(argv))
 
 

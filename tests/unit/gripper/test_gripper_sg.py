@@ -19,9 +19,32 @@ def sg(**kw) -> SlipGuardController:
 def test_hold_scales_with_the_measured_weight_and_follows_the_load_share():
     c = sg()
     assert c.step(sample(fy=2.0))[0] == pytest.approx(4 * 2.0 + 1.0)  # c_hold W0 + F_min
+    # share 0.65: level (0.65 − 0.5)/0.5 = 0.3, demand 0.3 · 9 = 2.7; k_down = 1: at once
+    assert c.step(sample(fy=1.3))[0] == pytest.approx(2.7)
+    assert c.mode[0] == 0  # grasp
+
+
+def test_easing_off_with_a_smaller_step():
+    c = sg(release_share=0.3, ease_off=0.3)
+    c.step(sample(fy=2.0))
     # share 0.65: level (0.65 − 0.3)/0.7 = 0.5, demand 4.5; easing off: 9 + 0.3 (4.5 − 9)
     assert c.step(sample(fy=1.3))[0] == pytest.approx(7.65)
-    assert c.mode[0] == 0  # grasp
+
+
+def test_a_slide_does_not_look_like_the_receiver_taking_the_load():
+    # The object slides sideways out of a loaded grip: the wrist now reads kinetic friction
+    # along the slide (F_sy 0.6 N, share 0.3), not the load. SG keeps the share seen one step
+    # before the slide (1.0): g = 1 + 20 · 0.01 · (0.05 / 0.005) = 3, demand 3 · 9 = 27 N.
+    c = sg()
+    c.step(sample(fy=2.0))
+    c.step(sample(fy=2.0))
+    assert c.step(sample(fy=0.6, vx=0.05))[0] == pytest.approx(27.0)
+    assert c.share_before_slip[0] == pytest.approx(1.0)
+    # Without the memory the same reading is taken for a handover: demand 0, released.
+    c = sg(slip_share_memory=False)
+    c.step(sample(fy=2.0))
+    c.step(sample(fy=2.0))
+    assert c.step(sample(fy=0.6, vx=0.05))[0] == 0.0
 
 
 def test_slip_while_loaded_raises_the_grip_at_once_and_remembers_it():
@@ -37,12 +60,14 @@ def test_slip_while_loaded_raises_the_grip_at_once_and_remembers_it():
 def test_no_adaptation_once_the_receiver_carries_the_load():
     c = sg()
     c.step(sample(fy=2.0))
-    c.step(sample(fy=1.0, vx=0.05))  # share 0.5 < s_guard 0.8: the receiver is taking it
+    c.step(sample(fy=1.0))  # the receiver took half of the weight while the object stuck ...
+    c.step(sample(fy=1.0))  # ... for two steps (the memory keeps the share one step back)
+    c.step(sample(fy=1.0, vx=0.05))  # share 0.5 < s_guard 0.8 before the slide: it is taking it
     assert c.gain[0] == 1.0
 
 
 def test_releases_when_the_load_is_taken_and_catches_a_falling_object():
-    c = sg()
+    c = sg(release_share=0.3, ease_off=0.3)
     c.step(sample(fy=2.0))
     grip, expected = [], 9.0
     for _ in range(20):
