@@ -23,6 +23,9 @@ from bus_schema.messages import EpisodeSummary, SimTruth, SupervisorState
 from services.runtime import ServiceNode
 
 SAFE_OUTCOMES = ("released", "timeout", "aborted")
+#: The supervisor publishes its state at ≥ 20 Hz; older than this, it is frozen or hung
+#: (nothing else watches the watcher): the job stops the arm itself and fails, s.
+SUPERVISOR_SILENT_S = 0.25
 
 
 @dataclass
@@ -101,12 +104,24 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
     states = node.subscribe(topics.SUPERVISOR_STATE, queue_size=256)
     summaries = node.subscribe(topics.EPISODE, queue_size=64)
     truth = node.subscribe(topics.SIM_TRUTH, queue_size=1024)
+    stop_pub = node.publisher(topics.MOTION_STOP)
     last_progress = time.monotonic()
+    last_state_s: float | None = None
+
+    def stopped(message: str) -> JobResult:
+        """Protective stop of the arm by the launcher itself (the supervisor may be gone)."""
+        try:
+            stop_pub.put(reason=f"protective stop: {message}"[:512], protective=True)
+        except Exception:  # the session is closing: the bridge holds on its command time-out
+            pass
+        return JobResult(False, message, watch.reports)
+
     while True:
         node.wait(0.05)
         for rx in truth.drain():
             watch.truth(rx.msg)
         for rx in states.drain():
+            last_state_s = rx.rx_monotonic
             line = watch.state(rx.msg)
             if line is not None:
                 say(line)
@@ -123,6 +138,9 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
                 return JobResult(True, "", watch.reports)
         reason = abort_reason()
         if reason is not None:
-            return JobResult(False, reason, watch.reports)
+            return stopped(reason)
+        silent_s = time.monotonic() - last_state_s if last_state_s is not None else 0.0
+        if silent_s > SUPERVISOR_SILENT_S:
+            return stopped(f"supervisor: silent: no supervisor/state for {silent_s:.3f} s; the launcher stopped the arm")
         if not math.isinf(episode_timeout_s) and time.monotonic() - last_progress > episode_timeout_s:
             return JobResult(False, f"no progress from the supervisor for {episode_timeout_s:.0f} s", watch.reports)

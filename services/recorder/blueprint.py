@@ -33,6 +33,12 @@ SIGNALS: dict[str, tuple[str, tuple[int, int, int]]] = {
 }
 
 
+#: Every 3-D entity the recorder writes (all in the `base` frame).
+WORLD_ENTITIES: tuple[str, ...] = (*POINT_STYLES, "world/skeleton/raw", "world/skeleton/bones",
+                                   "world/human/hand_correction", "world/object/estimate", "world/tool_path",
+                                   "world/motion/goal_arrow", "world/release")
+
+
 def static_styles() -> list[tuple[str, Any]]:
     """(entity, archetype) to log once as static: point looks and series names/colours."""
     out: list[tuple[str, Any]] = [
@@ -44,9 +50,9 @@ def static_styles() -> list[tuple[str, Any]]:
                                                                 colors=[(255, 40, 40)], markers=["cross"],
                                                                 marker_sizes=[8.0])))
     out.append(("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP))
-    # The URDF's links live in named frames under `base`; the points under /world are in
-    # Baxter's base frame too: join the two trees (identity) so one 3-D view shows both.
-    out.append(("frames/base", rr.Transform3D(parent_frame="tf#/", child_frame="base")))
+    # The URDF's links live in named frames under `base`; everything under /world is in
+    # Baxter's base frame too: say so explicitly, so one 3-D view shows both.
+    out += [(entity, rr.CoordinateFrame("base")) for entity in WORLD_ENTITIES]
     return out
 
 
