@@ -156,3 +156,34 @@ def test_feedforward_passed_through_and_zero_for_unnamed_joints(gate):
     assert gate.offer(["right_s0", "right_w2"], [0.1, 0.2], 0.0, HOME, velocity_rad_s=[0.3, -0.4]) is None
     d = gate.decide(0.01)
     assert d.feedforward_rad_s.tolist() == [0.3, 0, 0, 0, 0, 0, -0.4]
+
+
+# --------------------------------------------------------------------------- StopBrake
+
+from services.bridge.core import StopBrake  # noqa: E402
+
+
+def test_brake_decelerates_every_joint_at_its_limit_then_rests():
+    brake = StopBrake(deceleration_rad_s2=40.0)
+    brake.admit("reach-1")
+    brake.engage("release", np.array([1.0, -0.5, 0.0, 0.2, 0.0, 0.0, 0.0]))
+    speeds = [brake.step(0.01) for _ in range(4)]
+    # 0.4 rad/s less per 10 ms tick, never past zero, signs kept.
+    assert speeds[0] == pytest.approx([0.6, -0.1, 0.0, 0.0, 0.0, 0.0, 0.0])
+    assert speeds[1] == pytest.approx([0.2, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+    assert speeds[2] == pytest.approx([0.0] * 7) and brake.at_rest
+    # From 1 rad/s: at rest after ceil(1 / 0.4) = 3 ticks = 25 ms of braking at 40 rad/s².
+
+
+def test_brake_ignores_the_stopped_goal_and_a_new_goal_ends_it():
+    brake = StopBrake()
+    assert brake.admit("reach-1")
+    brake.engage("release", np.zeros(7))
+    assert not brake.admit("reach-1") and not brake.admit("reach-1")
+    assert brake.ignored_commands == 2 and brake.active
+    assert brake.admit("retract-2") and not brake.active
+
+
+def test_brake_rejects_a_non_positive_deceleration():
+    with pytest.raises(ValueError, match="deceleration"):
+        StopBrake(0.0)
