@@ -35,6 +35,8 @@ HAND_JOINT = "right_hand"
 #: Skeleton joints around which depth points belong to the person (for object detection).
 ARM_JOINTS = (("right_elbow", "right_hand"), ("left_elbow", "left_hand"))
 PERSON_ARM_RADIUS_M = 0.12
+#: Skeleton frames the reported torso position is the median of (0.5 s at 30 Hz).
+TORSO_MEDIAN_FRAMES = 15
 
 
 @dataclass(frozen=True)
@@ -111,6 +113,9 @@ class TrackerPipeline:
         self._last: HumanEstimate | None = None
         self._lost = True
         self._raw_history: deque[tuple[float, np.ndarray]] = deque(maxlen=64)
+        #: Recent torso joints: the reported torso is their median (Kinect joints jitter by
+        #: 5–10 cm; a standing receiver's torso should not look like a receiver who moved).
+        self._torso_history: deque[np.ndarray] = deque(maxlen=TORSO_MEDIAN_FRAMES)
 
     # ------------------------------------------------------------------ inputs
     def on_joint_state(self, q_rad: np.ndarray, t_s: float) -> None:
@@ -205,7 +210,9 @@ class TrackerPipeline:
             (lag_acted, held)
         ]
         self.body.update(frame.joints_m)
-        torso = frame.joints_m.get("torso", np.zeros(3))
+        if "torso" in frame.joints_m:
+            self._torso_history.append(np.asarray(frame.joints_m["torso"], float))
+        torso = np.median(np.array(self._torso_history), axis=0) if self._torso_history else np.zeros(3)
         return HumanEstimate(
             tracked=True,
             hand_m=np.asarray(hand, float),
@@ -230,6 +237,7 @@ class TrackerPipeline:
 
     def _lose(self) -> None:
         self._raw_history.clear()
+        self._torso_history.clear()
         self.proximity.reset()
         self._lost = True
 

@@ -29,11 +29,12 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import psutil
 
-from bus_schema import topics
+from bus_schema import DecodeError, decode, topics
 from services.runtime import ServiceNode
 from services.runtime.faults import ARM_DIR_ENV_VAR, ENV_VAR, arm_file_name
 from services.runtime.profile import free_tcp_port
@@ -100,21 +101,36 @@ def _signal(pid: int, service: str, sig: int) -> bool:
         return False
 
 
+def garbage(topic: topics.Topic, rng: random.Random) -> Iterator[bytes]:
+    """Payloads that do NOT decode as `topic`'s type: random bytes and structured mutations
+    of a valid sample, alternately. A mutation that still decodes is a valid message (e.g. a
+    real release event), not garbage: it is skipped."""
+    random_gen = random_payloads(rng, 10**12)
+    mutated = structured_payloads(rng, SAMPLES[topic.suffix], 10**12)
+    i = 0
+    while True:
+        payload = next(random_gen) if i % 2 else next(mutated)
+        try:
+            decode(topic, payload)
+        except DecodeError:
+            i += 1
+            yield payload
+
+
 def _flood(node: ServiceNode, plan: FaultPlan, stop: threading.Event, inj: Injection) -> None:
-    """Publish garbage on `plan.topic` at `plan.rate_hz` for `plan.duration_s`: random bytes
-    and structured mutations of a valid sample, alternately (bounded in rate and time)."""
+    """Publish `garbage` on `plan.topic` at `plan.rate_hz` for `plan.duration_s` (bounded in
+    rate and time)."""
     topic = topics.TOPICS_BY_SUFFIX[plan.topic or ""]
     pub = node.publisher(topic)
     rng = random.Random(hash(plan.label) & 0xFFFF)
     batch = 10
     period_s = batch / plan.rate_hz
     end_s = inj.at_s + plan.duration_s
-    random_gen = random_payloads(rng, 10**9)
-    mutated = structured_payloads(rng, SAMPLES[topic.suffix], 10**9)
+    payloads = garbage(topic, rng)
     next_s = time.monotonic()
     while not stop.is_set() and time.monotonic() < end_s:
         for i in range(batch):
-            pub.put_raw(next(random_gen) if (inj.sent + i) % 2 else next(mutated))
+            pub.put_raw(next(payloads))
         inj.sent += batch
         next_s += period_s
         time.sleep(max(0.0, next_s - time.monotonic()))

@@ -19,7 +19,7 @@ from services.runtime.profile import free_tcp_port, load_profile_file, zenoh_con
 from services.runtime.testing import BusRouter, wait_until
 
 USERS = {"bridge": "b-pw", "ros1": "r-pw", "motion": "m-pw", "gripper": "g-pw", "supervisor": "s-pw",
-         "planner": "p-pw", "tracker": "t-pw", "recorder": "rec-pw"}
+         "planner": "p-pw", "tracker": "t-pw", "recorder": "rec-pw", "kinect": "k-pw", "launcher": "l-pw"}
 
 
 def _credentials(path, users):
@@ -120,3 +120,51 @@ def test_default_profile_listens_on_loopback_only():
                      if c.status == psutil.CONN_LISTEN and c.laddr not in before]
     assert any(addr.port == port for addr in listening), listening
     assert all(addr.ip in ("127.0.0.1", "::1") for addr in listening), listening
+
+
+def test_heartbeats_from_every_service_and_the_supervisors_episode_pass(multihost):
+    """What the supervisor needs: every service's heartbeat reaches it, its episode summaries
+    reach the launcher; only the supervisor may publish them, only the Kinect driver the
+    skeleton (each user on its own authenticated session)."""
+    profile, _, _ = multihost
+    prefix = profile.prefix
+    heartbeat, episode, skeleton = (f"{prefix}/runtime/heartbeat", f"{prefix}/supervisor/episode",
+                                    f"{prefix}/perception/skeleton")
+    at_supervisor: list[tuple[str, bytes]] = []
+    at_launcher: list[bytes] = []
+    supervisor = open_session(profile, "client", timeout_s=5.0, user="supervisor")
+    launcher = open_session(profile, "client", timeout_s=5.0, user="launcher")
+    try:
+        subs = [supervisor.declare_subscriber(f"{prefix}/**", lambda s: at_supervisor.append(
+                    (str(s.key_expr), s.payload.to_bytes()))),
+                launcher.declare_subscriber(episode, lambda s: at_launcher.append(s.payload.to_bytes()))]
+        time.sleep(0.3)  # let the router learn the subscribers
+        puts = [(user, heartbeat, f"beat-{user}") for user in USERS if user != "supervisor"]
+        puts += [("supervisor", episode, "episode-from-supervisor"), ("gripper", episode, "episode-from-gripper"),
+                 ("kinect", skeleton, "skeleton-from-kinect"), ("bridge", skeleton, "skeleton-from-bridge")]
+        sessions = {user: open_session(profile, "client", timeout_s=5.0, user=user)
+                    for user in {u for u, _, _ in puts} - {"supervisor"}}
+        sessions["supervisor"] = supervisor
+        try:
+            time.sleep(0.3)
+            for _ in range(10):
+                for user, key, payload in puts:
+                    sessions[user].put(key, payload.encode())
+                time.sleep(0.01)
+            beats = {f"beat-{u}".encode() for u in USERS if u != "supervisor"}
+            assert wait_until(lambda: {p for _, p in at_supervisor} >= beats | {b"skeleton-from-kinect"}, 5.0), \
+                sorted({p for _, p in at_supervisor})
+            assert wait_until(lambda: b"episode-from-supervisor" in at_launcher, 5.0), at_launcher
+            time.sleep(0.2)
+        finally:
+            for user, session in sessions.items():
+                if user != "supervisor":
+                    session.close()
+        assert {k for k, p in at_supervisor if p.startswith(b"beat-")} == {heartbeat}
+        assert b"episode-from-gripper" not in at_launcher
+        assert b"skeleton-from-bridge" not in {p for _, p in at_supervisor}
+        for sub in subs:
+            sub.undeclare()
+    finally:
+        supervisor.close()
+        launcher.close()
