@@ -39,8 +39,15 @@ import numpy as np
 from scipy import stats
 from tqdm import tqdm
 
-from robot_sim.contact.episode import run_vectorised
 from robot_sim.contact.outcome import BatchOutcome
+from services.gripper.attribution import (
+    DropClass,
+    MaxHoldReference,
+    ReactiveMaxHold,
+    classify_drops,
+    paired_overshoot,
+    run_attributed,
+)
 from services.gripper.controllers import CONTROLLER_NAMES, make_controller
 from services.gripper.episodes import BEHAVIOUR_NAMES, EpisodeDistribution, sample_chunk
 from services.gripper.errors import GripperError
@@ -50,6 +57,8 @@ log = logging.getLogger(__name__)
 __all__ = ["BenchResult", "ControllerStats", "DEFAULT_CONTROLLERS", "run_benchmark", "summarise", "main"]
 
 DEFAULT_CONTROLLERS = ("FS1", "FS2", "FS3", "HI", "force-threshold", "displacement", "SG")
+#: Bounds run next to the controllers with `attribute=True` (see services.gripper.attribution).
+REFERENCES = {"max-hold": MaxHoldReference, "reactive-max-hold": ReactiveMaxHold}
 #: Seed of the episodes the new controller was tuned on; evaluation seeds must differ.
 TUNING_SEED = 1000
 
@@ -66,6 +75,7 @@ class BenchResult:
     grasp_start_s: np.ndarray
     seed: int
     wall_time_s: float
+    holds_at_release: dict[str, np.ndarray] | None = None
 
 
 def _run_job(args) -> tuple[str, int, BatchOutcome, dict]:
@@ -73,22 +83,31 @@ def _run_job(args) -> tuple[str, int, BatchOutcome, dict]:
     # A fresh copy: `spawn` counts its children, and the same chunk seed serves every controller.
     draw_seq, noise_seq = np.random.SeedSequence(seq.entropy, spawn_key=seq.spawn_key).spawn(2)
     chunk = sample_chunk(dist, n, np.random.default_rng(draw_seq))
-    controller = make_controller(name, period_s=0.01, **overrides)
-    outcome = run_vectorised(chunk.config, chunk.receivers, controller, seed=noise_seq)
+    if name in REFERENCES:
+        controller = REFERENCES[name](period_s=0.01)
+    else:
+        controller = make_controller(name, period_s=0.01, **overrides)
+    attributed = run_attributed(chunk.config, chunk.receivers, controller, seed=noise_seq)
     draws = dict(mass_kg=chunk.mass_kg, mu_static=chunk.mu_static, pull_angle_rad=chunk.pull_angle_rad,
                  behaviour=chunk.behaviour, grasp_start_s=chunk.grasp_start_s)
-    return name, index, outcome, draws
+    return name, index, attributed, draws
 
 
 def run_benchmark(controllers: list[str], n_episodes: int, seed: int = 1, workers: int | None = None,
                   chunk_size: int = 250, dist: EpisodeDistribution | None = None, progress: bool = True,
-                  overrides: dict[str, dict] | None = None) -> BenchResult:
-    """Run `n_episodes` episodes per controller (the same episodes for all)."""
+                  overrides: dict[str, dict] | None = None, attribute: bool = False) -> BenchResult:
+    """Run `n_episodes` episodes per controller (the same episodes for all).
+
+    With `attribute`, the two references of `services.gripper.attribution` run on the same
+    episodes too (`max-hold`, `reactive-max-hold`), so each drop can be attributed."""
     if n_episodes < 1:
         raise GripperError(f"need at least one episode per controller, got {n_episodes}")
     if chunk_size < 1:
         raise GripperError(f"chunk size must be >= 1, got {chunk_size}")
-    unknown = [c for c in controllers if c not in CONTROLLER_NAMES]
+    controllers = list(controllers)
+    if attribute:
+        controllers += [r for r in REFERENCES if r not in controllers]
+    unknown = [c for c in controllers if c not in CONTROLLER_NAMES and c not in REFERENCES]
     if unknown or not controllers:
         raise GripperError(f"unknown controller(s) {unknown}; choose from: {', '.join(CONTROLLER_NAMES)}")
     workers = (os.cpu_count() or 1) if workers is None else int(workers)
@@ -121,10 +140,11 @@ def run_benchmark(controllers: list[str], n_episodes: int, seed: int = 1, worker
         bar.close()
     wall = time.perf_counter() - t0
     cat = lambda key: np.concatenate([draws[i][key] for i in range(len(sizes))])  # noqa: E731
-    outcomes = {c: BatchOutcome.concatenate([parts[c][i] for i in range(len(sizes))]) for c in controllers}
+    outcomes = {c: BatchOutcome.concatenate([parts[c][i].outcome for i in range(len(sizes))]) for c in controllers}
+    holds = {c: np.concatenate([parts[c][i].holds_at_release for i in range(len(sizes))]) for c in controllers}
     return BenchResult(outcomes=outcomes, mass_kg=cat("mass_kg"), mu_static=cat("mu_static"),
                        pull_angle_rad=cat("pull_angle_rad"), behaviour=cat("behaviour"),
-                       grasp_start_s=cat("grasp_start_s"), seed=seed, wall_time_s=wall)
+                       grasp_start_s=cat("grasp_start_s"), seed=seed, wall_time_s=wall, holds_at_release=holds)
 
 
 # --------------------------------------------------------------------------- statistics
@@ -202,8 +222,69 @@ def controller_stats(name: str, outcome: BatchOutcome, behaviour: np.ndarray, gr
 
 
 def summarise(result: BenchResult) -> list[ControllerStats]:
-    """Per-controller figures, in the order the controllers were run."""
-    return [controller_stats(name, out, result.behaviour, result.grasp_start_s) for name, out in result.outcomes.items()]
+    """Per-controller figures, in the order the controllers were run (references left out)."""
+    return [controller_stats(name, out, result.behaviour, result.grasp_start_s)
+            for name, out in result.outcomes.items() if name not in REFERENCES]
+
+
+def drop_attribution(result: BenchResult) -> list[dict]:
+    """Per controller: drop rate split into unavoidable (the max-hold reference drops too),
+    actuator-limited (the reactive reference drops too: only a harder grip *before* any
+    sensor signal would have held it; non-taking episodes), receiver-let-go and controller
+    drops, as fractions of all episodes; plus the controller drops per behaviour.
+    Needs a run with `attribute=True`."""
+    if not all(r in result.outcomes for r in REFERENCES):
+        raise GripperError("drop attribution needs a benchmark run with attribute=True")
+    from services.gripper.attribution import AttributedOutcome
+
+    ref = result.outcomes["max-hold"].dropped
+    react = result.outcomes["reactive-max-hold"].dropped & (result.behaviour != 0)
+    rows = []
+    for name, out in result.outcomes.items():
+        if name in REFERENCES:
+            continue
+        cls = classify_drops(AttributedOutcome(out, result.holds_at_release[name]), ref)
+        limited = (cls == DropClass.CONTROLLER) & react
+        own = (cls == DropClass.CONTROLLER) & ~react
+        row = {"controller": name, "drop_rate": float(out.dropped.mean()),
+               "unavoidable_rate": float(np.mean(cls == DropClass.UNAVOIDABLE)),
+               "actuator_limited_rate": float(limited.mean()),
+               "receiver_let_go_rate": float(np.mean(cls == DropClass.RECEIVER_LET_GO)),
+               "controller_drop_rate": float(own.mean()),
+               "controller_drop_ci": wilson_ci(int(own.sum()), own.size)}
+        for code, label in BEHAVIOUR_NAMES.items():
+            m = result.behaviour == code
+            row[f"controller_drop_rate_{label}"] = float(own[m].mean()) if m.any() else math.nan
+        rows.append(row)
+    return rows
+
+
+def attribution_table(rows: list[dict]) -> str:
+    """Markdown table of `drop_attribution` (rates in % of all episodes)."""
+    lines = ["| controller | drops % | unavoidable % | actuator-limited % | receiver let go % "
+             "| controller drops % [95% CI] | controller drops: taking / dropping / hesitating / bumping % |",
+             "|" + "---|" * 7]
+    for r in rows:
+        lo, hi = r["controller_drop_ci"]
+        lines.append(
+            f"| {r['controller']} | {100 * r['drop_rate']:.1f} | {100 * r['unavoidable_rate']:.1f} "
+            f"| {100 * r['actuator_limited_rate']:.1f} | {100 * r['receiver_let_go_rate']:.1f} "
+            f"| {100 * r['controller_drop_rate']:.1f} [{100 * lo:.1f}, {100 * hi:.1f}] | "
+            + " / ".join(_f(100 * r[f'controller_drop_rate_{k}'], 1)
+                         for k in ('taking', 'dropping', 'hesitating', 'bumping')) + " |")
+    return "\n".join(lines)
+
+
+def paired_overshoot_rows(result: BenchResult, against: str = "SG") -> list[dict]:
+    """Force overshoot of `against` and every other controller on the taking episodes both
+    handed over (`services.gripper.attribution.paired_overshoot`)."""
+    take = result.behaviour == 0
+    rows = []
+    for name, out in result.outcomes.items():
+        if name in REFERENCES or name == against:
+            continue
+        rows.append({"other": name, **paired_overshoot(result.outcomes[against], out, take)})
+    return rows
 
 
 def paired_drop_test(result: BenchResult, a: str, b: str) -> dict:
@@ -345,6 +426,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--chunk-size", type=_positive_int, default=250, help="episodes per vectorised chunk")
     p.add_argument("--out", type=Path, default=Path("out/gripper_bench"), help="folder for table.md, results.csv, plots")
     p.add_argument("--img-dir", type=Path, default=None, help="also write the plots here (e.g. docs/img)")
+    p.add_argument("--attribute", action="store_true",
+                   help="also run the max-hold and reactive-max-hold references and attribute every drop "
+                        "(unavoidable, actuator-limited, receiver let go, controller); paired overshoot vs SG")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--log-level", default="warning", choices=["debug", "info", "warning", "error"])
@@ -357,7 +441,7 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     try:
         result = run_benchmark(args.controllers, args.episodes, seed=args.seed, workers=args.workers,
-                               chunk_size=args.chunk_size, progress=not args.no_progress)
+                               chunk_size=args.chunk_size, progress=not args.no_progress, attribute=args.attribute)
     except GripperError as exc:
         print(f"handover-bench: error: {exc}", file=sys.stderr)
         return 2
@@ -371,12 +455,25 @@ def main(argv: list[str] | None = None) -> int:
     tests = []
     if "SG" in result.outcomes:
         for other in result.outcomes:
-            if other != "SG":
+            if other != "SG" and other not in REFERENCES:
                 t = paired_drop_test(result, "SG", other)
                 tests.append(t)
                 print(f"paired drops SG vs {other}: SG-only {t['only_a_drops']}, {other}-only {t['only_b_drops']}, "
                       f"McNemar exact p = {t['p_value']:.2g}")
     args.out.mkdir(parents=True, exist_ok=True)
+    if args.attribute:
+        att = drop_attribution(result)
+        att_table = attribution_table(att)
+        print("\nWho dropped it (% of all episodes; see services/gripper/attribution.py)\n")
+        print(att_table)
+        (args.out / "attribution.md").write_text(att_table + "\n")
+        if "SG" in result.outcomes:
+            print("\nForce overshoot on the taking episodes both handed over (N):")
+            for r in paired_overshoot_rows(result):
+                if r.get("episodes"):
+                    print(f"SG vs {r['other']}: {r['episodes']} episodes, median {r['a_median_n']:.2f} vs "
+                          f"{r['b_median_n']:.2f}, p95 {r['a_p95_n']:.2f} vs {r['b_p95_n']:.2f}, "
+                          f"median paired difference {r['median_difference_n']:+.2f}")
     (args.out / "table.md").write_text(table + "\n")
     print(f"\nwrote {args.out / 'table.md'}")
     print(f"wrote {write_csv(rows, args.out / 'results.csv')}")

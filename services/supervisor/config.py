@@ -82,7 +82,7 @@ class SupervisorConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
     replan_threshold_m: Annotated[float, Meta(gt=0.0, le=2.0)] = 0.05
     max_replans: Annotated[int, Meta(ge=0, le=100)] = 3
     heartbeat_timeout_s: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.25
-    stream_timeout_s: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.15
+    stream_timeout_s: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.2
     watch: dict[str, Watch] = msgspec.field(default_factory=lambda: {"recorder": "report"})
 
     @property

@@ -1,0 +1,52 @@
+"""Release interrupt latency (issue 8 Must show): release event → arm speed zero, p99 ≤ 50 ms.
+
+Run: python -m pytest tests/bench/test_bench_release_interrupt.py -m bench -s
+The whole stack runs as real processes (`handover-up --job none --episodes 32 --receiver
+absent`); in every episode the test publishes a `gripper/release` while the supervisor is in
+``reach`` and the arm MOVES (max joint speed ≥ 0.2 rad/s), and measures from just before the
+publication to the first `robot/joint_state` with every |v| < 0.01 rad/s
+(`tests.faults.release_interrupt`). Baseline, same run: the supervisor's reaction alone
+(release event → its `motion/stop` received by the test); the ratio is total / reaction.
+JSON: out/bench/release_interrupt.json.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from tests.bench._report import save, summarize, table
+from tests.faults.release_interrupt import measure_release_interrupts
+
+pytestmark = [pytest.mark.bench, pytest.mark.timeout(900)]
+
+EPISODES = 32
+TARGET_P99_S = 0.050
+
+
+def test_release_interrupt_latency_over_repeated_runs():
+    samples = measure_release_interrupts(EPISODES, seed=1)
+    complete = [s for s in samples if s.event_to_rest_s is not None and s.event_to_stop_s is not None]
+    assert len(complete) >= 30, f"only {len(complete)} complete release interrupts of {len(samples)}"
+    total = summarize([s.event_to_rest_s for s in complete])
+    reaction = summarize([s.event_to_stop_s for s in complete])
+    state = summarize([s.event_to_released_state_s for s in complete if s.event_to_released_state_s is not None])
+    speeds = np.array([s.speed_at_release_rad_s for s in complete])
+    rows = [
+        ("release event → arm at rest (|v| < 0.01 rad/s)", *(f"{total[k] * 1000:.1f}" for k in ("median", "p90", "p99", "max"))),
+        ("release event → motion/stop (baseline)", *(f"{reaction[k] * 1000:.1f}" for k in ("median", "p90", "p99", "max"))),
+        ("release event → supervisor 'released'", *(f"{state[k] * 1000:.1f}" for k in ("median", "p90", "p99", "max"))),
+    ]
+    print()
+    print(table(rows, ("latency (ms)", "median", "p90", "p99", "max")))
+    print(f"n = {len(complete)}; arm speed at the release: median {np.median(speeds):.2f} rad/s, "
+          f"min {speeds.min():.2f}, max {speeds.max():.2f}; ratio total/reaction (median) "
+          f"{total['median'] / reaction['median']:.2f}; target p99 ≤ {TARGET_P99_S * 1000:.0f} ms")
+    save("release_interrupt", {
+        "event_to_rest_s": total, "event_to_stop_s": reaction, "event_to_released_state_s": state,
+        "ratio_total_to_reaction_median": total["median"] / reaction["median"],
+        "speed_at_release_rad_s": {"median": float(np.median(speeds)), "min": float(speeds.min()),
+                                   "max": float(speeds.max())},
+        "target_p99_s": TARGET_P99_S, "meets_target": total["p99"] <= TARGET_P99_S,
+        "samples": [vars(s) for s in samples],
+    })

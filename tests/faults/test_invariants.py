@@ -1,0 +1,78 @@
+"""The fault-run judge on hand-made records, and the fault windows of the runtime injection."""
+
+from __future__ import annotations
+
+from bus_schema.messages import EpisodeSummary, JointState, MotionGoal, MotionStop, SimTruth
+from services.runtime.faults import ARM_DIR_ENV_VAR, FaultRule, FaultyPut, arm_file_name
+from tests.faults.invariants import FaultPlan, Injection, RunRecord, judge
+
+H = {"seq": 0, "stamp_ns": 0, "source": "t"}
+
+
+def js(v):
+    return JointState(**H, names=["a", "b"], position_rad=[0.0, 0.0], velocity_rad_s=[v, 0.0])
+
+
+def record(speeds, stop_at=1.0, exit_code=1, service="motion", dropped_at=None):
+    rec = RunRecord(receiver="absent")
+    rec.injections = [Injection(FaultPlan("kill", service), at_s=0.9, at_wall_s=1000.0, phase_seen_s=0.5)]
+    rec.joints = [(0.01 * i, js(v)) for i, v in enumerate(speeds)]
+    rec.truth = [(0.01 * i, SimTruth(**H, dropped=dropped_at is not None and 0.01 * i >= dropped_at))
+                 for i in range(len(speeds))]
+    rec.stops = [(stop_at, MotionStop(**H, reason=f"protective stop: {service}: lost", protective=True))]
+    rec.summaries = [(1.5, EpisodeSummary(**H, episode_id=1, outcome="protective_stop",
+                                          reason=f"protective stop: {service}: process gone",
+                                          faults=[f"{service}: process gone"]))]
+    rec.exit_code, rec.exit_line = exit_code, f"[launcher] exit {exit_code}: {service} was killed by SIGKILL"
+    return rec
+
+
+def test_a_clean_protective_stop_passes_and_gives_its_stop_latency():
+    speeds = [0.5] * 100 + [0.2, 0.05, 0.0] + [0.0] * 50  # braking ends at t = 1.02 s
+    v = judge(record(speeds))
+    assert v.ok, v.violations
+    assert abs(v.stop_s["kill motion @ transfer"] - (1.02 - 0.9)) < 1e-9
+
+
+def test_motion_after_the_stop_a_drop_and_a_wrong_exit_are_each_caught():
+    speeds = [0.5] * 100 + [0.0] * 20 + [0.3] + [0.0] * 20
+    v = judge(record(speeds, exit_code=0, dropped_at=1.3))
+    text = "\n".join(v.violations)
+    assert "arm moved after the protective stop: 0.300 rad/s" in text
+    assert "object dropped" in text
+    assert "launcher exit 0, expected 1" in text
+
+
+def test_a_fault_that_nobody_names_is_a_violation():
+    rec = record([0.0] * 150, service="planner")
+    rec.summaries = [(1.5, EpisodeSummary(**H, episode_id=1, outcome="timeout", reason="no release"))]
+    rec.exit_line = "[launcher] exit 1"
+    v = judge(rec)
+    assert any("not named" in x for x in v.violations)
+
+
+def test_the_retract_after_a_release_is_allowed_but_moving_before_it_is_not():
+    speeds = [0.4] * 100 + [0.0] * 50 + [0.5] * 20
+    rec = record(speeds)
+    rec.injections, rec.exit_code = [], 0
+    rec.stops = [(1.0, MotionStop(**H, reason="release"))]
+    rec.goals = [(1.5, MotionGoal(**H, goal_id="r", kind="retract"))]
+    assert judge(rec).ok
+    rec.goals = [(1.6, MotionGoal(**H, goal_id="r", kind="retract"))]
+    assert any("before the retract" in x for x in judge(rec).violations)
+
+
+def test_an_armed_fault_acts_only_while_its_file_exists(tmp_path, monkeypatch):
+    monkeypatch.setenv(ARM_DIR_ENV_VAR, str(tmp_path))
+    sent: list[bytes] = []
+    put = FaultyPut(sent.append, FaultRule("motion", "robot/joint_command", "drop", 1.0), seed=0)
+    put(b"a")
+    assert sent == [b"a"]  # not armed: passes
+    (tmp_path / arm_file_name("motion", "robot/joint_command")).touch()
+    put._armed_checked_s = -1.0
+    put(b"b")
+    assert sent == [b"a"] and put.dropped == 1
+    (tmp_path / arm_file_name("motion", "robot/joint_command")).unlink()
+    put._armed_checked_s = -1.0
+    put(b"c")
+    assert sent == [b"a", b"c"]
