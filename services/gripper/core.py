@@ -121,6 +121,8 @@ class GripperCore:
         self._wrench: WrenchReading | None = None
         self._motion: MotionReading | None = None
         self._rejected = {"wrist_wrench": 0, "object_motion": 0}
+        #: The supervisor's grip request; without a supervisor the controller runs.
+        self.request = "transfer"
         self.rearm()
 
     # ------------------------------------------------------------------ inputs
@@ -137,6 +139,17 @@ class GripperCore:
         self._episode_start_s: float | None = None
         self.steps = 0
         self.holds = 0
+
+    def set_request(self, request: str) -> None:
+        """What the supervisor asks (`SupervisorState.grip_request`): ``open`` (no object:
+        command 0 N), ``carry`` (hold firmly at `hold_grip_force_n`: pick and carry, or a
+        failed transfer), ``transfer`` (run the fail-safe controller). Entering ``transfer``
+        re-arms the controller, so it starts from the load it holds at that moment."""
+        if request not in ("open", "carry", "transfer"):
+            raise GripperError(f"unknown grip request {request!r}; use open, carry or transfer")
+        if request == "transfer" and self.request != "transfer":
+            self.rearm()
+        self.request = request
 
     def offer_wrench(self, reading: WrenchReading) -> None:
         """A wrist-wrench sample arrived (decoded)."""
@@ -242,6 +255,14 @@ class GripperCore:
         self._last_tick_s = now_s
         stale = self._stale_reasons(now_s)
         fresh = not stale
+        if self.request != "transfer":
+            self._new_wrench = self._new_motion = False
+            if self.request == "open":
+                self.last_command_n = 0.0
+                return self._decision(0.0, "release", "open (supervisor: no object)", fresh, stepped=False)
+            force = min(self.config.hold_grip_force_n, self.config.max_grip_force_n)
+            self.last_command_n = force
+            return self._decision(force, "grasp", "carry (supervisor)", fresh, stepped=False)
         if self.released:
             self._new_wrench = self._new_motion = False
             return self._decision(self.last_command_n, "release", "released", fresh, stepped=False)

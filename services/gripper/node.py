@@ -145,13 +145,16 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
                 with loop.lock:
                     wait_s = core.next_due_s(time.monotonic())
                 node.wait(min(wait_s, _MAX_WAIT_S))
-                if config.rearm_on_new_episode:
-                    for rx in supervisor_sub.drain():
-                        if episode_id is not None and rx.msg.episode_id != episode_id:
+                for rx in supervisor_sub.drain():
+                    with loop.lock:
+                        if (config.rearm_on_new_episode and episode_id is not None
+                                and rx.msg.episode_id != episode_id):
                             log.info("new episode: re-arming", extra=kv(episode_id=rx.msg.episode_id))
-                            with loop.lock:
-                                core.rearm()
-                        episode_id = rx.msg.episode_id
+                            core.rearm()
+                        if rx.msg.grip_request != core.request:
+                            log.info("grip request", extra=kv(request=rx.msg.grip_request, phase=rx.msg.phase))
+                            core.set_request(rx.msg.grip_request)
+                    episode_id = rx.msg.episode_id
                 if node.should_stop:
                     break
                 with loop.lock:
