@@ -55,6 +55,9 @@ class GripperConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
         max_position_m: largest position command, m from fully open.
         rearm_on_new_episode: a new supervisor episode id resets the controller and the
             release latch.
+        step_in_callback: run a due control step, and publish its command, in the bus
+            callback that received the wrist wrench (the low-latency path); False hands each
+            sample to the service's main thread first (one thread wake-up more).
     """
 
     controller: str = "FS1"
@@ -71,6 +74,7 @@ class GripperConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
     contact_position_m: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.0
     max_position_m: Annotated[float, Meta(gt=0.0, le=1.0)] = 0.1
     rearm_on_new_episode: bool = True
+    step_in_callback: bool = True
 
     @property
     def period_s(self) -> float:

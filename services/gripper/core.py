@@ -168,6 +168,16 @@ class GripperCore:
             raise GripperError(f"unknown sensor stream {stream!r}; use wrist_wrench or object_motion")
         self._rejected[stream] = int(total_rejected)
 
+    @property
+    def has_new_wrench(self) -> bool:
+        """A wrench sample arrived since the last controller step."""
+        return self._new_wrench
+
+    @property
+    def wrench_rx_s(self) -> float | None:
+        """Local receive time of the newest wrench sample (monotonic s), None before any."""
+        return None if self._wrench is None else self._wrench.rx_s
+
     # ------------------------------------------------------------------ timing
     def due(self, now_s: float) -> bool:
         """Whether `tick` should run now: a new wrench sample and the step grid point is at

@@ -126,6 +126,21 @@ class _GripperLoop:
                 "latency_p99_us": round(float(np.percentile(a, 99)), 1)}
 
 
+def _offer_queued(loop: _GripperLoop, wrench_sub, motion_sub) -> None:
+    """Main-thread path (`step_in_callback = false`): hand the queued samples to the core."""
+    with loop.lock:
+        for rx in wrench_sub.drain():
+            f = rx.msg.force_n
+            loop.core.offer_wrench(WrenchReading(force_x_n=f[0], force_y_n=f[1], rx_s=rx.rx_monotonic))
+        for rx in motion_sub.drain():
+            m = rx.msg
+            loop.core.offer_motion(MotionReading(accel_y_m_s2=m.accel_y_m_s2, slip_velocity_x_m_s=m.velocity_m_s[0],
+                                                 slip_velocity_y_m_s=m.velocity_m_s[1],
+                                                 surface_valid=m.surface_valid, rx_s=rx.rx_monotonic))
+        loop.core.note_rejected("wrist_wrench", wrench_sub.stats.rejected)
+        loop.core.note_rejected("object_motion", motion_sub.stats.rejected)
+
+
 def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | None = None) -> int:
     """Run the gripper service until SIGINT/SIGTERM. Returns the exit code."""
     core = core or GripperCore(config)
@@ -133,18 +148,25 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
         loop = _GripperLoop(node, config, core)
         supervisor_sub = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16)
         session = node.session
-        subscribers = [
-            session.declare_subscriber(topics.WRIST_WRENCH.key(profile.prefix), loop.on_wrench),
-            session.declare_subscriber(topics.OBJECT_MOTION.key(profile.prefix), loop.on_motion),
-        ]
+        subscribers, queued = [], None
+        if config.step_in_callback:
+            subscribers = [
+                session.declare_subscriber(topics.WRIST_WRENCH.key(profile.prefix), loop.on_wrench),
+                session.declare_subscriber(topics.OBJECT_MOTION.key(profile.prefix), loop.on_motion),
+            ]
+        else:  # one thread hop more: decode in Zenoh's thread, step in the main thread
+            queued = (node.subscribe(topics.WRIST_WRENCH), node.subscribe(topics.OBJECT_MOTION))
         episode_id: int | None = None
         log.info("gripper running", extra=kv(controller=config.controller, rate_hz=config.rate_hz,
-                                             wrench_timeout_s=config.wrench_timeout_s))
+                                             wrench_timeout_s=config.wrench_timeout_s,
+                                             step_in_callback=config.step_in_callback))
         try:
             while not node.should_stop:
                 with loop.lock:
                     wait_s = core.next_due_s(time.monotonic())
                 node.wait(min(wait_s, _MAX_WAIT_S))
+                if queued is not None:
+                    _offer_queued(loop, *queued)
                 for rx in supervisor_sub.drain():
                     with loop.lock:
                         if (config.rearm_on_new_episode and episode_id is not None
@@ -160,7 +182,8 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
                 with loop.lock:
                     now_s = time.monotonic()
                     if core.due(now_s):
-                        loop.publish(core.tick(now_s), now_s)
+                        rx_s = core.wrench_rx_s if core.has_new_wrench else None
+                        loop.publish(core.tick(now_s), now_s, rx_s)
         finally:
             for sub in subscribers:
                 try:

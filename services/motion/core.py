@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 from typing import Sequence
@@ -55,8 +54,6 @@ log = logging.getLogger(__name__)
 
 #: Extra ticks allowed after a Cartesian path's end for the IK to converge on the goal pose.
 _CONVERGE_TICKS = 50
-#: The planning rollout calls `keepalive` every this many simulated ticks.
-_KEEPALIVE_EVERY_TICKS = 20
 #: Times a Cartesian goal's duration is stretched (×1.5 each) when the IK cannot keep up.
 _STRETCH_ATTEMPTS = 3
 #: A joint state younger than this (s) is used as the start of a stop.
@@ -144,9 +141,6 @@ class MotionController:
             np.full(n, config.stop_acceleration_rad_s2), np.full(n, config.stop_jerk_rad_s3),
         )
         self._mode = _Mode.IDLE
-        #: Called every few IK steps while a transfer is planned (tens of ms): the node sends
-        #: its heartbeat from it so that planning does not look like a frozen service.
-        self.keepalive: Callable[[], None] | None = None
         self._status = Status("idle")
         self._goal_id = ""
         self._t0_s = 0.0
@@ -383,8 +377,6 @@ class MotionController:
         q = q0.copy()
         ticks = int(math.ceil(reach.duration_s / dt))
         for k in range(1, ticks + _CONVERGE_TICKS + 1):
-            if self.keepalive is not None and k % _KEEPALIVE_EVERY_TICKS == 0:
-                self.keepalive()
             p, rot, _ = reach.pose_at(k * dt)
             result = self.ik.track_step(p, rot, q, dt)
             q = result.q_rad

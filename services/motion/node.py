@@ -36,7 +36,6 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
     status_every_s = 1.0 / config.status_rate_hz
     joint_names = list(RIGHT_ARM_JOINTS)
     with ServiceNode(SERVICE_NAME, profile) as node:
-        controller.keepalive = node.heartbeat
         command_pub = node.publisher(topics.JOINT_COMMAND)
         status_pub = node.publisher(topics.MOTION_STATUS)
         goals = node.subscribe(topics.MOTION_GOAL)

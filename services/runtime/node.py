@@ -243,9 +243,11 @@ class ServiceNode:
     the liveliness token ``<prefix>/alive/<name>`` and installs SIGINT/SIGTERM handlers that
     request shutdown. Leaving undeclares everything and closes the session, from this thread.
 
-    `wait()` and `loop()` (the main thread's waits) also send the service's heartbeat
-    (`runtime/heartbeat`, `HEARTBEAT_PERIOD_S`), so a frozen service falls silent; a service
-    that blocks elsewhere calls `heartbeat()` itself. `HANDOVER_FAULTS` rules for this
+    A heartbeat thread sends the service's heartbeat (`runtime/heartbeat`,
+    `HEARTBEAT_PERIOD_S`) while the process runs, so a frozen (SIGSTOP) or dead process falls
+    silent at once while a long computation in the main loop (a reach plan, a depth frame on a
+    loaded machine) does not look like a fault; a stalled main loop shows in the freshness of
+    the service's own data streams instead. `HANDOVER_FAULTS` rules for this
     service (`services.runtime.faults`) delay or drop its publications (fault tests only).
     """
 
@@ -274,6 +276,7 @@ class ServiceNode:
         self.loops: list[RateLoop] = []
         self.fault_rules = rules_for(name)
         self._heartbeat_pub: TypedPublisher[Any] | None = None
+        self._beat_lock = threading.Lock()
         self._beats = 0
         self._next_beat_s = 0.0
         self._opened_s = time.monotonic()
@@ -297,6 +300,7 @@ class ServiceNode:
         self._opened_s = time.monotonic()
         self._heartbeat_pub = self.publisher(HEARTBEAT)
         self.heartbeat()
+        threading.Thread(target=self._beat_forever, name=f"{self.name} heartbeat", daemon=True).start()
         log.info(
             "%s connected to the bus",
             self.name,
@@ -361,12 +365,17 @@ class ServiceNode:
             self._new_data = True
             self._wake.notify_all()
 
+    def _beat_forever(self) -> None:
+        while not self.stop_event.wait(HEARTBEAT_PERIOD_S / 2):
+            self.heartbeat()
+
     def heartbeat(self) -> None:
-        """Send the heartbeat if it is due (cheap to call often; main thread)."""
+        """Send the heartbeat if it is due (cheap to call often; any thread)."""
         now = time.monotonic()
-        if self._heartbeat_pub is None or now < self._next_beat_s:
-            return
-        self._next_beat_s = now + HEARTBEAT_PERIOD_S
+        with self._beat_lock:
+            if self._heartbeat_pub is None or now < self._next_beat_s:
+                return
+            self._next_beat_s = now + HEARTBEAT_PERIOD_S
         try:
             self._heartbeat_pub.put(uptime_s=min(now - self._opened_s, 86400.0), beats=self._beats)
             self._beats += 1
@@ -374,14 +383,11 @@ class ServiceNode:
             log.debug("heartbeat not sent: %s", exc)
 
     def wait(self, timeout_s: float) -> bool:
-        """Block until any subscription has new data, shutdown, or `timeout_s` passes
-        (at most until the next heartbeat is due).
+        """Block until any subscription has new data, shutdown, or `timeout_s` passes.
 
         Returns:
             True when new data arrived since the last call.
         """
-        self.heartbeat()
-        timeout_s = min(timeout_s, max(0.0, self._next_beat_s - time.monotonic()))
         with self._wake:
             if not self._new_data and not self.stop_event.is_set():
                 self._wake.wait(timeout_s)
@@ -393,9 +399,7 @@ class ServiceNode:
         """A fixed-rate loop (see `RateLoop`) that ends on shutdown."""
         loop = RateLoop(rate_hz, self.stop_event, name=f"{self.name} {rate_hz:g} Hz loop")
         self.loops.append(loop)
-        for tick in loop:
-            self.heartbeat()
-            yield tick
+        yield from loop
 
     def stats(self) -> dict[str, Any]:
         """Counters of every subscription and loop, for logs and tests."""
