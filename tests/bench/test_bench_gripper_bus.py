@@ -20,6 +20,7 @@ import pytest
 from bus_schema import topics
 from bus_schema.topics import Topic
 from services.runtime import ServiceNode
+from services.runtime.liveliness import alive_services
 from services.runtime.testing import BusRouter, ServiceProcess, free_tcp_port, loopback_profile, wait_alive, wait_until
 from tests.bench._report import save, summarize, table
 
@@ -110,8 +111,7 @@ def test_gripper_sample_to_command_latency_and_1khz():
             with ServiceNode("bench", profile, install_signal_handlers=False) as node:
                 time.sleep(0.3)
                 before = _gripper_round_trips(node)
-        assert wait_until(lambda: not any(True for _ in router.liveliness().get(
-            "bench/typed/alive/gripper", timeout=0.2)), 10)
+        assert wait_until(lambda: "gripper" not in alive_services(router, profile.prefix, timeout_s=0.2), 10)
         with ServiceProcess("services.gripper", profile, args=base):
             wait_alive(router, profile, {"gripper"})
             with ServiceNode("bench", profile, install_signal_handlers=False) as node:
