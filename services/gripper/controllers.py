@@ -500,12 +500,14 @@ class SlipGuardParams:
     gripper), v = (v_x, v_y) the optical slip velocity (y down), valid where the sensor
     sees the object.
 
+        slide memory: while valid and |v| > v_th, if s_prev > s_guard:  s = max(s, s_prev)
+                      (s_prev: the share one step before the slide began)
         demand[n] = g[n] · F_hold · clip((s − s_rel) / (1 − s_rel), 0, s_cap),
         F_hold    = c_hold · W0 + F_min
         g[n+1]    = min(g[n] + k_g T |v| / v_th, g_max)    if valid, |v| > v_th and s > s_guard
         catch:      demand = max(demand, g F_hold)          if valid, v_y > v_th and v_y > κ |v_x|
         F_G[n+1]  = demand                                  if demand ≥ F_G[n]   (grip up at once)
-                  = F_G[n] + k_down (demand − F_G[n])       otherwise            (ease off smoothly)
+                  = F_G[n] + k_down (demand − F_G[n])       otherwise            (ease off)
         F_G       = 0                                       once F_G < F_eps (then ≥ 0 N only on a catch)
 
     In words: hold in proportion to the load the gripper still carries (like HI, but
@@ -517,6 +519,14 @@ class SlipGuardParams:
     falling, not being taken: grip at once, also after a release. The slip velocity, not
     the acceleration, sees an object that slides at constant speed.
 
+    The slide memory (`slip_share_memory`, on by default since version 2): while the object
+    slides, the wrist reads the pads' *kinetic friction*, which points along the slide, not
+    the load; a sideways slide (a receiver hooking and pulling the object without carrying
+    it) makes F_sy, and so s, fall as if the receiver had taken the weight, and version 1
+    released into the fall. Version 2 keeps the share seen before the slide (one step back,
+    since the optical speed lags the wrist by up to a report) while the gripper carried the
+    load then. Version 1 = `slip_share_memory=False, release_share=0.3, ease_off=0.3`.
+
     Attributes:
         hold_per_weight: c_hold (1/μ the grip holds without adapting), dimensionless.
         min_hold_force_n: F_min, N.
@@ -526,7 +536,10 @@ class SlipGuardParams:
         slip_speed_threshold_m_s: v_th, m/s (one optical count per 10 ms ≈ 6.4 mm/s).
         adapt_rate_per_s: k_g, 1/s (growth of g per second at |v| = v_th).
         fall_steepness: κ, v_y > κ |v_x| counts as falling.
-        ease_off: k_down per control step (0 < k_down ≤ 1).
+        resist_per_force: while s > s_guard the demand is at least g times this times
+            |F_s| (0 = off, the default).
+        slip_share_memory: keep the pre-slide load share during a slide (see above).
+        ease_off: k_down per control step (0 < k_down ≤ 1; 1 = follow the demand at once).
         release_epsilon_n: F_eps, N.
         max_grip_force_n: F_max, N (≤ 140 N).
     """

@@ -68,11 +68,12 @@ class LaunchOptions:
     seed: int | None = None
     episode_timeout_s: float = 90.0
 
-    def service_args(self, name: str) -> list[str]:
-        """Command-line overrides for service `name` (receiver, posture, seed → the bridge;
+    def service_args(self, name: str, scene_service: str = "bridge") -> list[str]:
+        """Command-line overrides for service `name` (receiver, posture, seed → the service
+        that simulates the scene: the bridge, or the fake Baxter when the profile has one;
         episodes → the supervisor)."""
         args: list[str] = []
-        if name == "bridge":
+        if name == scene_service:
             if self.receiver is not None:
                 args += ["--receiver", self.receiver]
             if self.posture is not None:
@@ -110,7 +111,8 @@ class Launcher:
         if name == RECORDER:
             self.recording = recording_path(self.options.recording_dir, self.options.run_id, attempt)
             return ["--output", str(self.recording)]
-        return self.options.service_args(name)
+        scene = "fake_baxter" if any(s.name == "fake_baxter" for s in self.specs) else "bridge"
+        return self.options.service_args(name, scene)
 
     def _start(self, name: str) -> Child:
         spec = next(s for s in self.specs if s.name == name)

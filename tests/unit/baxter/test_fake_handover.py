@@ -31,10 +31,9 @@ def fake(make_node):
         robot.close()
 
 
-def _run(robot: FakeBaxter, seconds: float) -> None:
-    """Tick the fake at 100 Hz for `seconds` of wall time (its Kinect thread runs meanwhile)."""
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
+def _run(robot: FakeBaxter, ticks: int) -> None:
+    """Tick the fake `ticks` times at ≈ 100 Hz (its Kinect thread runs meanwhile)."""
+    for _ in range(ticks):
         robot.tick(0.01)
         time.sleep(0.01)
 
@@ -46,11 +45,11 @@ def test_the_fake_plays_the_kinect_on_the_scenes_receiver(fake, make_node):
     truth = observer.subscribe(topics.SIM_TRUTH, queue_size=10_000)
     assert isinstance(fake.physics, HandoverSimBackend)
     time.sleep(0.3)  # subscribers known to the router
-    _run(fake, 1.0)
-    assert wait_until(lambda: skeletons.latest() is not None and depths.latest() is not None, 3.0)
+    _run(fake, 50)  # one sim/truth per tick
+    assert wait_until(lambda: skeletons.latest() is not None and depths.latest() is not None, 5.0)
     assert {rx.msg.source for rx in skeletons.drain()} == {SERVICE_NAME}
-    truths = [rx.msg for rx in truth.drain()]
-    assert len(truths) > 30
+    truths: list = []
+    assert wait_until(lambda: (truths.extend(rx.msg for rx in truth.drain()), len(truths) >= 50)[1], 5.0), len(truths)
     last = truths[-1]
     assert last.source == SERVICE_NAME and last.held_by == "table" and not last.dropped
     np.testing.assert_allclose(last.object_position_m, OBJECT_START_M, atol=1e-9)
@@ -75,7 +74,7 @@ def test_a_new_supervisor_episode_resets_the_scene(fake, make_node):
     scene.object_m = OBJECT_START_M + np.array([0.0, 0.0, 0.3])  # as if lifted
     episodes_before = scene.episode
     announce(1)  # the same episode again: no reset
-    _run(fake, 0.2)
+    _run(fake, 20)
     assert fake.scene_resets == 0
     np.testing.assert_allclose(scene.object_m, OBJECT_START_M + [0.0, 0.0, 0.3])
     announce(2)
