@@ -34,8 +34,8 @@ def _run(args: argparse.Namespace) -> int:
         value = getattr(args, key)
         if value is not None:
             table[key] = value
-    if args.step_in_main_thread:
-        table["step_in_callback"] = False
+    if args.step_in_callback:
+        table["step_in_callback"] = True
     if args.param:
         params = dict(table.get("controller_params", {}))
         params.update(args.param)
@@ -75,9 +75,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--motion-timeout-s", type=float, default=None, help="object motion freshness limit, s")
     parser.add_argument("--param", type=_param, action="append", default=[], metavar="NAME=VALUE",
                         help="controller parameter override (repeatable), e.g. --param k_i=0.2")
-    parser.add_argument("--step-in-main-thread", action="store_true",
-                        help="step in the service's main thread instead of the sensor callback "
-                             "(one thread wake-up more; for latency comparisons)")
+    parser.add_argument("--step-in-callback", action="store_true",
+                        help="step in the sensor callback instead of the service's main thread "
+                             "(latency comparisons; see docs/gripper.md)")
     parser.add_argument("--list", action="store_true", help="list the controllers and exit")
     return parser
 

@@ -1,17 +1,19 @@
 """Bus wiring of the gripper service: wrist wrench and object motion in; gripper command,
 state and the release event out. All decisions are in `services.gripper.core`.
 
-Latency path (DESIGN §9: sensor sample in → grip command out, p99 ≤ 1 ms): the wrist-wrench
-and object-motion subscriptions decode each payload in Zenoh's callback thread and, when a
-control step is due, run it and publish the command *in that same thread*. Handing the
-sample to the service's main thread first (queue + condition variable) costs an extra
-thread wake-up, which on a loaded machine is the largest part of the tail (see
-docs/gripper.md, "Sample in → command out"). A lock serialises the core between the two
-callbacks and the main thread.
+Latency path (DESIGN §9: sensor sample in → grip command out, p99 ≤ 1 ms). Default: the
+runtime's subscriptions decode each payload in Zenoh's thread and wake the main thread,
+which steps the controller and publishes the command (it waits on the bus, not on a timer).
+`step_in_callback = true` instead runs a due step and publishes its command inside the
+wrist-wrench callback, saving that thread wake-up; measured side by side
+(tests/bench/test_bench_gripper_bus.py) it gains nothing on the median and nothing reliable
+on p99, so it is off (a blocking publish inside Zenoh's receive thread can also stall
+reception). A lock serialises the core between the callbacks and the main thread. Each
+process logs, at exit, the median and p99 of "wrench received → command published".
 
-The main thread runs the watchdog: a tick every 1/rate_hz judges freshness even when the
-sensors go silent (then the service holds), steps a sample that arrived a little before
-its grid point, re-arms on a new supervisor episode and sends the heartbeat. Commands and
+The main thread also runs the watchdog: a tick every 1/rate_hz judges freshness even when
+the sensors go silent (then the service holds), re-arms on a new supervisor episode and
+sends the heartbeat. Commands and
 release events are safety keys (congestion control BLOCK, high priority); the state stream
 may drop.
 

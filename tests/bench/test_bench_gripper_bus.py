@@ -3,8 +3,9 @@ keeps up with 1 kHz sensor input), next to a typed echo process measured in the 
 
 Both are round trips between two processes (sample out, answer back): the echo is the bus
 cost alone, the gripper adds its decode, freshness checks, FS1 step and publications. The
-gripper runs twice in the same run: stepping in the main thread after a queue hand-off (the
-service before the fix, `--step-in-main-thread`) and stepping in the sensor callback (now).
+gripper runs twice in the same run: stepping in the main thread after the queue hand-off
+(the default) and stepping inside the sensor callback (`--step-in-callback`, one thread
+wake-up less).
 Run: python -m pytest tests/bench/test_bench_gripper_bus.py -m bench -s
 """
 
@@ -106,28 +107,29 @@ def test_gripper_sample_to_command_latency_and_1khz():
             proc.terminate()
             proc.wait(10)
         base = ["--controller", "FS1", "--rate-hz", "1000", "--log-level", "warning"]
-        with ServiceProcess("services.gripper", profile, args=base + ["--step-in-main-thread"]):
-            wait_alive(router, profile, {"gripper"})
-            with ServiceNode("bench", profile, install_signal_handlers=False) as node:
-                time.sleep(0.3)
-                before = _gripper_round_trips(node)
-        assert wait_until(lambda: "gripper" not in alive_services(router, profile.prefix, timeout_s=0.2), 10)
         with ServiceProcess("services.gripper", profile, args=base):
             wait_alive(router, profile, {"gripper"})
             with ServiceNode("bench", profile, install_signal_handlers=False) as node:
                 time.sleep(0.3)
                 grip = _gripper_round_trips(node)
                 sent, steps, _ = _keep_up(node)
-    res = {"echo_round_trip": summarize(echo), "gripper_main_thread_round_trip": summarize(before),
-           "gripper_round_trip": summarize(grip)}
+        assert wait_until(lambda: "gripper" not in alive_services(router, profile.prefix, timeout_s=0.2), 10)
+        with ServiceProcess("services.gripper", profile, args=base + ["--step-in-callback"]):
+            wait_alive(router, profile, {"gripper"})
+            with ServiceNode("bench", profile, install_signal_handlers=False) as node:
+                time.sleep(0.3)
+                callback = _gripper_round_trips(node)
+    res = {"echo_round_trip": summarize(echo), "gripper_round_trip": summarize(grip),
+           "gripper_step_in_callback_round_trip": summarize(callback)}
     ratio = res["gripper_round_trip"]["median"] / res["echo_round_trip"]["median"]
     rows = [(k, f"{v['median'] * 1e6:.0f}", f"{v['p90'] * 1e6:.0f}", f"{v['p99'] * 1e6:.0f}", str(v["n"]))
             for k, v in res.items()]
     print("\nSensor sample in -> grip command out, round trip between two processes, µs")
     print(table(rows, ("path", "median", "p90", "p99", "samples")))
-    print(f"gripper / typed echo: {ratio:.2f}x (median); callback / main-thread step: "
-          f"{res['gripper_round_trip']['median'] / res['gripper_main_thread_round_trip']['median']:.2f}x (median), "
-          f"{res['gripper_round_trip']['p99'] / res['gripper_main_thread_round_trip']['p99']:.2f}x (p99); "
+    cb = res["gripper_step_in_callback_round_trip"]
+    print(f"gripper / typed echo: {ratio:.2f}x (median); step in callback / in main thread: "
+          f"{cb['median'] / res['gripper_round_trip']['median']:.2f}x (median), "
+          f"{cb['p99'] / res['gripper_round_trip']['p99']:.2f}x (p99); "
           f"1 kHz stream: {sent} samples in, {steps} controller steps out")
     save("gripper_bus", {**res, "ratio_median_vs_echo": ratio, "keep_up_1khz": {"samples": sent, "steps": steps}})
     assert steps >= 0.95 * sent, f"the service fell behind at 1 kHz: {steps} steps for {sent} samples"

@@ -25,7 +25,12 @@ TARGET_P99_S = 0.050
 
 
 def test_release_interrupt_latency_over_repeated_runs():
-    samples = measure_release_interrupts(EPISODES, seed=1)
+    samples: list = []
+    stops: list[str] = []
+    for stack in range(4):  # a protective stop (watchdog on a loaded machine) ends a stack early
+        if len(samples) >= EPISODES:
+            break
+        samples += measure_release_interrupts(EPISODES - len(samples), seed=1 + stack, protective_stops_out=stops)
     complete = [s for s in samples if s.event_to_rest_s is not None and s.event_to_stop_s is not None]
     assert len(complete) >= 30, f"only {len(complete)} complete release interrupts of {len(samples)}"
     total = summarize([s.event_to_rest_s for s in complete])
@@ -41,12 +46,13 @@ def test_release_interrupt_latency_over_repeated_runs():
     print(table(rows, ("latency (ms)", "median", "p90", "p99", "max")))
     print(f"n = {len(complete)}; arm speed at the release: median {np.median(speeds):.2f} rad/s, "
           f"min {speeds.min():.2f}, max {speeds.max():.2f}; ratio total/reaction (median) "
-          f"{total['median'] / reaction['median']:.2f}; target p99 ≤ {TARGET_P99_S * 1000:.0f} ms")
+          f"{total['median'] / reaction['median']:.2f}; target p99 ≤ {TARGET_P99_S * 1000:.0f} ms; "
+          f"stacks ended by a protective stop: {len(stops)} {stops}")
     save("release_interrupt", {
         "event_to_rest_s": total, "event_to_stop_s": reaction, "event_to_released_state_s": state,
         "ratio_total_to_reaction_median": total["median"] / reaction["median"],
         "speed_at_release_rad_s": {"median": float(np.median(speeds)), "min": float(speeds.min()),
                                    "max": float(speeds.max())},
-        "target_p99_s": TARGET_P99_S, "meets_target": total["p99"] <= TARGET_P99_S,
+        "protective_stops": stops, "target_p99_s": TARGET_P99_S, "meets_target": total["p99"] <= TARGET_P99_S,
         "samples": [vars(s) for s in samples],
     })

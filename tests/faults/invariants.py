@@ -262,7 +262,7 @@ def judge(rec: RunRecord, strict_exit: bool = True) -> Verdict:
                     if rest is not None:
                         stop[plan.label] = max(t_stop, rest) - inj.at_s
     critical = [i for i in rec.injections if i.plan.critical]
-    if not critical:
+    if not critical and rec.injections:  # nothing injected (phase never reached): no exit rule
         named_stop = summary is not None and summary.outcome == "protective_stop" and ": " in summary.reason
         if rec.exit_code != 0 and (strict_exit or not named_stop or rec.exit_code != 1):
             violations.append(f"only tolerated faults ({', '.join(i.plan.label for i in rec.injections)}), "

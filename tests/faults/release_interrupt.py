@@ -45,8 +45,11 @@ class ReleaseSample:
     event_to_rest_s: float | None
 
 
-def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 600.0) -> list[ReleaseSample]:
-    """Run `episodes` episodes and interrupt each reach with a release (see module docstring)."""
+def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 600.0,
+                               protective_stops_out: list[str] | None = None) -> list[ReleaseSample]:
+    """Run `episodes` episodes and interrupt each reach with a release (see module docstring).
+    A protective stop (e.g. a watchdog time-out on an overloaded machine) ends the stack
+    early: its reason is appended to `protective_stops_out`."""
     port = free_tcp_port()
     profile = loopback_profile(port)
     rng = random.Random(seed)
@@ -77,6 +80,7 @@ def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 
         wait_after_reach_s = 0.0
         pending: dict | None = None
         done_episodes: set[int] = set()
+        protective_stops: list[str] = []
         while time.monotonic() < deadline and len(done_episodes) < episodes and proc.poll() is None:
             node.wait(0.001)
             for rx in states.drain():
@@ -89,6 +93,10 @@ def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 
                         pending["released"] = rx.rx_monotonic
                     if phase in ("done", "failed", "protective_stop"):
                         done_episodes.add(episode_id)
+                    if phase == "protective_stop":
+                        protective_stops.append(rx.msg.reason)
+            if protective_stops:
+                break  # the supervisor never moves again after a protective stop
             for rx in stops.drain():
                 if pending is not None and pending["stop"] is None and rx.msg.reason == "release":
                     pending["stop"] = rx.rx_monotonic
@@ -111,6 +119,8 @@ def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 
                 pending = None
         if pending is not None:
             samples.append(_sample(pending))
+        if protective_stops_out is not None:
+            protective_stops_out.extend(protective_stops)
     finally:
         if node is not None:
             node.close()
