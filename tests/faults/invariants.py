@@ -127,11 +127,24 @@ def _max_speed(msg: Any) -> float:
     return max((abs(x) for x in v), default=0.0)
 
 
+#: Braking is done at the first of this many consecutive joint states at rest (30 ms at
+#: 100 Hz): one sample at a velocity zero crossing is not "at rest".
+REST_SAMPLES = 3
+
+
 def first_rest_after(joints: list[tuple[float, Any]], t0_s: float) -> float | None:
-    """Receive time of the first joint state at or after `t0_s` with the arm at rest."""
+    """Receive time of the first of `REST_SAMPLES` consecutive joint states at or after
+    `t0_s` with the arm at rest (None if the arm never settled, or no joint state came)."""
+    run: list[float] = []
     for t, msg in joints:
-        if t >= t0_s and _max_speed(msg) < REST_SPEED_RAD_S:
-            return t
+        if t < t0_s:
+            continue
+        if _max_speed(msg) < REST_SPEED_RAD_S:
+            run.append(t)
+            if len(run) >= REST_SAMPLES:
+                return run[0]
+        else:
+            run = []
     return None
 
 
