@@ -116,3 +116,12 @@ def test_bad_receiver_parameters_fail_at_construction():
         HandoverScene(SceneParams(behaviour="juggling"))
     with pytest.raises(ContactSimError):
         HandoverScene(SceneParams(receiver={"no_such_parameter": 1.0}))
+
+
+def test_a_soft_dropping_receiver_never_gets_the_object_from_a_firm_grip():
+    scene = HandoverScene(SceneParams(behaviour="dropping", seed=4))
+    pick_and_present(scene)
+    outs = [scene.step(DT, TRANSFER_M, 0.0, 10.0) for _ in range(600)]
+    assert any(o.receiver_phase == "contact" for o in outs)
+    assert max(abs(o.receiver_pull_n) for o in outs) <= 3.5  # the thesis's soft pull (≈ 2–3 N)
+    assert not any(o.dropped for o in outs) and outs[-1].held_by == "gripper"
