@@ -18,21 +18,25 @@ import pytest
 from tests.bench._report import save, summarize, table
 from tests.faults.release_interrupt import measure_release_interrupts
 
-pytestmark = [pytest.mark.bench, pytest.mark.timeout(900)]
+pytestmark = [pytest.mark.bench, pytest.mark.timeout(1800)]
 
 EPISODES = 32
+MIN_SAMPLES = 30
+#: On an overloaded machine the watchdog ends a stack now and then (bridge silent): start
+#: another one until `MIN_SAMPLES` release interrupts are measured.
+MAX_STACKS = 15
 TARGET_P99_S = 0.050
 
 
 def test_release_interrupt_latency_over_repeated_runs():
     samples: list = []
     stops: list[str] = []
-    for stack in range(4):  # a protective stop (watchdog on a loaded machine) ends a stack early
-        if len(samples) >= EPISODES:
+    for stack in range(MAX_STACKS):  # a protective stop (watchdog on a loaded machine) ends a stack early
+        if sum(s.event_to_rest_s is not None for s in samples) >= MIN_SAMPLES:
             break
         samples += measure_release_interrupts(EPISODES - len(samples), seed=1 + stack, protective_stops_out=stops)
     complete = [s for s in samples if s.event_to_rest_s is not None and s.event_to_stop_s is not None]
-    assert len(complete) >= 30, f"only {len(complete)} complete release interrupts of {len(samples)}"
+    assert len(complete) >= MIN_SAMPLES, f"only {len(complete)} complete release interrupts of {len(samples)}"
     total = summarize([s.event_to_rest_s for s in complete])
     reaction = summarize([s.event_to_stop_s for s in complete])
     state = summarize([s.event_to_released_state_s for s in complete if s.event_to_released_state_s is not None])
