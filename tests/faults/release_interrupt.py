@@ -117,7 +117,7 @@ def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 
                     and pending["released"] is not None:
                 samples.append(_sample(pending))
                 pending = None
-        if pending is not None:
+        if pending is not None and not protective_stops:  # one cut short by a protective stop is no sample
             samples.append(_sample(pending))
         if protective_stops_out is not None:
             protective_stops_out.extend(protective_stops)
