@@ -175,9 +175,10 @@ class StopBrake:
     The stop does not depend on the motion service being alive: the bridge brakes the arm at
     once with a bounded deceleration and then holds it. Every joint's speed falls by
     `deceleration_rad_s2 · dt` per tick until zero (a joint at 1 rad/s stops in 25 ms at
-    40 rad/s²). Joint commands of the goal that was running when the stop came are ignored
-    afterwards; the first command of another goal ends the stop (the supervisor sends a new
-    goal only once it has cleared the stop).
+    40 rad/s²). After a stop, joint commands are ignored unless they belong to a goal the
+    supervisor sent *after* the stop (`goal_after_stop`, from `motion/goal`): a goal sent just
+    before the stop, whose commands arrive after it, cannot move the arm again. A protective
+    stop is latched for the rest of the episode: no goal ends it, only `new_episode`.
 
     Args:
         deceleration_rad_s2: braking deceleration of every joint, rad/s² (> 0).
@@ -188,31 +189,42 @@ class StopBrake:
             raise ValueError(f"deceleration_rad_s2 must be > 0, got {deceleration_rad_s2}")
         self.deceleration_rad_s2 = float(deceleration_rad_s2)
         self.active = False
+        self.protective = False
         self.reason = ""
-        self.stopped_goal_id: str | None = None
-        self.last_goal_id = ""
         self.ignored_commands = 0
+        self._goals_after_stop: set[str] = set()
         self._velocity_rad_s: np.ndarray | None = None
 
-    def engage(self, reason: str, velocity_rad_s: np.ndarray) -> None:
+    def engage(self, reason: str, velocity_rad_s: np.ndarray, protective: bool = False) -> None:
         """A stop arrived: brake from the measured joint velocities (rad/s)."""
         if not self.active:
             self._velocity_rad_s = np.nan_to_num(np.asarray(velocity_rad_s, dtype=float)).copy()
-            self.stopped_goal_id = self.last_goal_id
         self.active = True
+        self.protective = self.protective or protective
         self.reason = reason
+        self._goals_after_stop.clear()
+
+    def goal_after_stop(self, goal_id: str) -> None:
+        """The supervisor sent goal `goal_id` (seen on `motion/goal`); while stopped, only
+        goals sent after the stop may end it."""
+        if self.active and not self.protective:
+            self._goals_after_stop.add(goal_id)
+
+    def new_episode(self) -> None:
+        """A new supervisor episode: a protective stop may now be ended by a new goal."""
+        self.protective = False
 
     def admit(self, goal_id: str) -> bool:
-        """Whether a joint command of `goal_id` may reach the arm (ends the stop when it is
-        a new goal)."""
+        """Whether a joint command of `goal_id` may reach the arm (ends the stop when the
+        goal was sent after it)."""
         if self.active:
-            if goal_id == self.stopped_goal_id:
+            if self.protective or goal_id not in self._goals_after_stop:
                 self.ignored_commands += 1
                 return False
             self.active = False
             self.reason = ""
             self._velocity_rad_s = None
-        self.last_goal_id = goal_id
+            self._goals_after_stop.clear()
         return True
 
     def step(self, dt_s: float) -> np.ndarray:

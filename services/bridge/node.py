@@ -45,7 +45,8 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
         commands = node.subscribe(topics.JOINT_COMMAND)
         grip_commands = node.subscribe(topics.GRIPPER_COMMAND)
         stops = node.subscribe(topics.MOTION_STOP, queue_size=16)
-        supervisor = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16) if new_episode else None
+        goals = node.subscribe(topics.MOTION_GOAL, queue_size=64)
+        supervisor = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16)
         episode_id: int | None = None
         extra_pubs: dict[str, Any] = {}
 
@@ -76,17 +77,24 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                 dt_s, last_s = now_s - last_s, now_s
                 measured = backend.read()
                 current = measured.position_rad
-                for rx in stops.drain():
+                # Stops and goals in arrival order: a goal counts only if it came after the stop.
+                events = sorted([(rx.rx_monotonic, 0, rx) for rx in stops.drain()]
+                                + [(rx.rx_monotonic, 1, rx) for rx in goals.drain()], key=lambda e: (e[0], e[1]))
+                for _t, kind, rx in events:
+                    if kind == 1:
+                        brake.goal_after_stop(rx.msg.goal_id)
+                        continue
                     if not brake.active:
                         log.warning("stop: braking", extra=kv(reason=rx.msg.reason, protective=rx.msg.protective,
                                                               source=rx.msg.source))
-                    brake.engage(rx.msg.reason, measured.velocity_rad_s)
-                if supervisor is not None:
-                    for rx in supervisor.drain():
-                        if episode_id is not None and rx.msg.episode_id != episode_id:
+                    brake.engage(rx.msg.reason, measured.velocity_rad_s, rx.msg.protective)
+                for rx in supervisor.drain():
+                    if episode_id is not None and rx.msg.episode_id != episode_id:
+                        brake.new_episode()
+                        if new_episode is not None:
                             log.info("new episode: scene reset", extra=kv(episode_id=rx.msg.episode_id))
                             new_episode()
-                        episode_id = rx.msg.episode_id
+                    episode_id = rx.msg.episode_id
                 for rx in commands.drain():
                     if not brake.admit(rx.msg.goal_id):
                         continue

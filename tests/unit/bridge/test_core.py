@@ -165,7 +165,6 @@ from services.bridge.core import StopBrake  # noqa: E402
 
 def test_brake_decelerates_every_joint_at_its_limit_then_rests():
     brake = StopBrake(deceleration_rad_s2=40.0)
-    brake.admit("reach-1")
     brake.engage("release", np.array([1.0, -0.5, 0.0, 0.2, 0.0, 0.0, 0.0]))
     speeds = [brake.step(0.01) for _ in range(4)]
     # 0.4 rad/s less per 10 ms tick, never past zero, signs kept.
@@ -175,13 +174,27 @@ def test_brake_decelerates_every_joint_at_its_limit_then_rests():
     # From 1 rad/s: at rest after ceil(1 / 0.4) = 3 ticks = 25 ms of braking at 40 rad/s².
 
 
-def test_brake_ignores_the_stopped_goal_and_a_new_goal_ends_it():
+def test_only_a_goal_sent_after_the_stop_ends_it():
     brake = StopBrake()
     assert brake.admit("reach-1")
     brake.engage("release", np.zeros(7))
-    assert not brake.admit("reach-1") and not brake.admit("reach-1")
+    # reach-2 was sent before the stop; its commands arrive after it: ignored.
+    assert not brake.admit("reach-1") and not brake.admit("reach-2")
     assert brake.ignored_commands == 2 and brake.active
-    assert brake.admit("retract-2") and not brake.active
+    brake.goal_after_stop("retract-3")
+    assert not brake.admit("reach-2")
+    assert brake.admit("retract-3") and not brake.active
+    assert brake.admit("anything")  # no stop: commands pass
+
+
+def test_a_protective_stop_is_latched_until_a_new_episode():
+    brake = StopBrake()
+    brake.engage("protective stop: gripper lost", np.zeros(7), protective=True)
+    brake.goal_after_stop("retract-9")
+    assert not brake.admit("retract-9") and brake.active
+    brake.new_episode()
+    brake.goal_after_stop("e2-pick-1")
+    assert brake.admit("e2-pick-1") and not brake.active
 
 
 def test_brake_rejects_a_non_positive_deceleration():
