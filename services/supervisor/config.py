@@ -53,7 +53,7 @@ class SupervisorConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
         max_replans: new reach goals allowed per episode.
         heartbeat_timeout_s: a watched service whose heartbeat (20 Hz) is older than this is
             silent: noticed at most 0.2 s after the first missing beat.
-        stream_timeout_s: a watched data stream (joint state, gripper state, motion status)
+        stream_timeout_s: a watched data stream (robot joint state, gripper state)
             older than this means its service is silent.
         watch: what a lost or silent service means: ``critical`` → protective stop,
             ``report`` → logged and reported in the episode summary. Services of the profile
