@@ -94,6 +94,9 @@ class Launcher:
         self.profile = profile
         self.options = options
         self.specs = start_order(profile.services)
+        if options.job == "demo":
+            # The demo drives the arm itself; a supervisor running episodes would fight it.
+            self.specs = [spec for spec in self.specs if spec.name != "supervisor"]
         if not self.specs:
             raise LauncherError(f"profile {profile.path} enables no service")
         self.width = max(len("launcher"), *(len(s.name) for s in self.specs))

@@ -84,7 +84,10 @@ def test_critical_service_fault_in_transfer_stops_the_arm_and_is_named(service, 
         assert summary is not None and summary.outcome == "protective_stop", summary
         assert summary.reason.startswith(f"protective stop: {service}: "), summary.reason
         assert plan.label in verdict.detection_s
-        if not (service == "bridge" and kind == "kill"):  # a killed bridge is the simulated robot gone
+        if service != "bridge":
+            # A killed bridge is the simulated robot gone; a frozen one is the robot frozen
+            # with it (no joint state to time the stop from until SIGCONT, which may come
+            # after the stack has already shut down).
             assert plan.label in verdict.stop_s, verdict
     # The object stayed in the gripper (the receiver is absent): sim truth to the end.
     assert rec.truth[-1][1].held_by == "gripper"

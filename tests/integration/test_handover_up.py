@@ -59,7 +59,7 @@ def _finish(proc, timeout=30):
 
 
 def test_demo_moves_the_arm_and_the_recording_holds_the_motion(tmp_path):
-    proc, profile = _launch(tmp_path)
+    proc, profile = _launch(tmp_path, "--job", "demo")
     published: list = []
     node = None
     try:
