@@ -174,6 +174,7 @@ def run_with_faults(plans: list[FaultPlan], receiver: str = "absent", seed: int 
             "stops": node.subscribe(topics.MOTION_STOP, 100_000),
             "goals": node.subscribe(topics.MOTION_GOAL, 1000),
             "releases": node.subscribe(topics.GRIPPER_RELEASE, 1000),
+            "targets": node.subscribe(topics.TRANSFER, 10_000),
         }
 
         def pump() -> None:

@@ -100,6 +100,7 @@ class RunRecord:
     stops: list[tuple[float, Any]] = field(default_factory=list)
     goals: list[tuple[float, Any]] = field(default_factory=list)
     releases: list[tuple[float, Any]] = field(default_factory=list)
+    targets: list[tuple[float, Any]] = field(default_factory=list)
     lines: list[tuple[float, str]] = field(default_factory=list)
     exit_code: int | None = None
     exit_line: str = ""

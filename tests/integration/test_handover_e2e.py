@@ -83,8 +83,17 @@ def test_hesitating_receiver_times_out_and_the_arm_retracts_with_the_object():
 
 
 def test_sitting_receiver_gets_a_lower_transfer_point_than_standing(standing_taking):
+    """The DJT optimum for a sitting receiver is lower (thesis §2.5). The planner re-plans as
+    the tracker's body estimates settle, and a sitting receiver's optimum sits on its reach
+    limit, which moves with them: compare the median height of every plan of each run."""
     sitting = run_with_faults([], receiver="taking", seed=1, extra_args=("--posture", "sitting"))
-    z_stand = _summary(standing_taking).transfer_point_base_m[2]
-    s_sit = _summary(sitting)
-    assert s_sit.receiver_posture == "sitting" and _summary(standing_taking).receiver_posture == "standing"
-    assert s_sit.transfer_point_base_m[2] < z_stand, (s_sit.transfer_point_base_m, z_stand)
+    assert _summary(sitting).receiver_posture == "sitting"
+    assert _summary(standing_taking).receiver_posture == "standing"
+
+    def median_z(rec, posture):
+        zs = [m.position_base_m[2] for _, m in rec.targets if m.receiver_posture == posture]
+        assert len(zs) >= 5, f"only {len(zs)} {posture} plans seen"
+        return float(np.median(zs))
+
+    z_sit, z_stand = median_z(sitting, "sitting"), median_z(standing_taking, "standing")
+    assert z_sit < z_stand, (z_sit, z_stand)
