@@ -8,6 +8,8 @@ physics and the hardware sensors slot in without touching the node.
 
 from __future__ import annotations
 
+import math
+
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -25,6 +27,19 @@ class JointReading:
     position_rad: np.ndarray
     velocity_rad_s: np.ndarray
     effort_nm: np.ndarray
+
+
+#: Bound of the optical sensor's 16-bit displacement counts.
+INT16_MAX = 32767
+
+
+def clip_finite(value: float, bound: float) -> float:
+    """`value` clipped to [−bound, bound]; a NaN or infinite value becomes 0 (a simulator
+    glitch must not reach the bus, whose fields are bounded)."""
+    value = float(value)
+    if not math.isfinite(value):
+        return 0.0
+    return max(-bound, min(bound, value))
 
 
 #: publish(topic_suffix, fields) → publishes a message of that topic with the given fields.

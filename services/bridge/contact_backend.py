@@ -27,17 +27,8 @@ from robot_sim.baxter import arm_model
 from robot_sim.contact.config import ObjectParams, SimConfig
 from robot_sim.contact.plant import ContactPlant
 from robot_sim.contact.receiver import behaviour_by_name
-from services.bridge.backend import PublishFn, SimBackend
+from services.bridge.backend import INT16_MAX, PublishFn, SimBackend, clip_finite
 from services.bridge.errors import BridgeConfigError
-
-_INT16 = 32767
-
-
-def _clip(value: float, bound: float) -> float:
-    value = float(value)
-    if not math.isfinite(value):
-        return 0.0
-    return max(-bound, min(bound, value))
 
 
 class ContactSimBackend(SimBackend):
@@ -96,15 +87,15 @@ class ContactSimBackend(SimBackend):
             return
         tool = self._last_tool
         publish("sensors/wrist_wrench", {
-            "force_n": (_clip(obs.wrist_force_x_n, 1e4), _clip(obs.wrist_force_y_n, 1e4), 0.0),
+            "force_n": (clip_finite(obs.wrist_force_x_n, 1e4), clip_finite(obs.wrist_force_y_n, 1e4), 0.0),
         })
         publish("sensors/object_motion", {
-            "displacement_counts": (int(_clip(obs.optical_counts_x, _INT16)), int(_clip(obs.optical_counts_y, _INT16))),
+            "displacement_counts": (int(clip_finite(obs.optical_counts_x, INT16_MAX)), int(clip_finite(obs.optical_counts_y, INT16_MAX))),
             "counts_per_m": float(obs.optical_counts_per_m),
             "dt_s": float(min(max(obs.optical_dt_s, 1e-6), 1.0)),
             "surface_valid": bool(obs.optical_valid),
-            "velocity_m_s": (_clip(obs.slip_velocity_x_m_s, 1e3), _clip(obs.slip_velocity_y_m_s, 1e3)),
-            "accel_y_m_s2": _clip(obs.accel_y_m_s2, 1e4),
+            "velocity_m_s": (clip_finite(obs.slip_velocity_x_m_s, 1e3), clip_finite(obs.slip_velocity_y_m_s, 1e3)),
+            "accel_y_m_s2": clip_finite(obs.accel_y_m_s2, 1e4),
         })
         in_pads = not bool(obs.left_pads) and float(obs.grip_force_n) > 0.0
         receiver = bool(obs.receiver_holds)
@@ -113,13 +104,13 @@ class ContactSimBackend(SimBackend):
         hand = tool + np.array([float(obs.hand_position_x_m), 0.0, -float(obs.hand_position_y_m)])
         publish("sim/truth", {
             "object_position_m": tuple(np.clip(obj, -100, 100).tolist()),
-            "object_velocity_m_s": (_clip(obs.object_velocity_x_m_s, 1e3), 0.0, _clip(-obs.object_velocity_y_m_s, 1e3)),
+            "object_velocity_m_s": (clip_finite(obs.object_velocity_x_m_s, 1e3), 0.0, clip_finite(-obs.object_velocity_y_m_s, 1e3)),
             "held_by": held_by,
             "dropped": bool(obs.dropped),
-            "slip_m": _clip(obs.object_position_y_m, 10.0),
-            "grip_force_n": max(0.0, _clip(obs.grip_force_n, 1e4)),
+            "slip_m": clip_finite(obs.object_position_y_m, 10.0),
+            "grip_force_n": max(0.0, clip_finite(obs.grip_force_n, 1e4)),
             "receiver_hand_position_m": tuple(np.clip(hand, -100, 100).tolist()),
-            "receiver_pull_n": _clip(obs.pull_force_x_n, 1e4),
+            "receiver_pull_n": clip_finite(obs.pull_force_x_n, 1e4),
             "tool_position_m": tuple(tool.tolist()),
             "tool_speed_m_s": min(self._tool_speed, 1000.0),
         })

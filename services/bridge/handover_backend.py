@@ -17,7 +17,6 @@ hand back at rest: the lab assistant resetting the scene.
 
 from __future__ import annotations
 
-import math
 import threading
 
 import numpy as np
@@ -25,17 +24,8 @@ import numpy as np
 from robot_sim.baxter import arm_model
 from robot_sim.contact.config import ContactSimError
 from robot_sim.handover_scene import HandoverScene, SceneOutput, SceneParams
-from services.bridge.backend import PublishFn, SimBackend
+from services.bridge.backend import INT16_MAX, PublishFn, SimBackend, clip_finite
 from services.bridge.errors import BridgeConfigError
-
-_INT16 = 32767
-
-
-def _clip(value: float, bound: float) -> float:
-    value = float(value)
-    if not math.isfinite(value):
-        return 0.0
-    return max(-bound, min(bound, value))
 
 
 def _vec(v: np.ndarray, bound: float = 100.0) -> tuple[float, float, float]:
@@ -95,25 +85,25 @@ class HandoverSimBackend(SimBackend):
         if out is None:
             return
         publish("sensors/wrist_wrench", {
-            "force_n": (_clip(out.wrist_force_n[0], 1e4), _clip(out.wrist_force_n[1], 1e4), 0.0),
+            "force_n": (clip_finite(out.wrist_force_n[0], 1e4), clip_finite(out.wrist_force_n[1], 1e4), 0.0),
         })
         publish("sensors/object_motion", {
-            "displacement_counts": (int(_clip(out.optical_counts[0], _INT16)), int(_clip(out.optical_counts[1], _INT16))),
+            "displacement_counts": (int(clip_finite(out.optical_counts[0], INT16_MAX)), int(clip_finite(out.optical_counts[1], INT16_MAX))),
             "counts_per_m": float(out.optical_counts_per_m),
             "dt_s": float(min(max(out.optical_dt_s, 1e-6), 1.0)),
             "surface_valid": bool(out.optical_valid),
-            "velocity_m_s": (_clip(out.slip_velocity_m_s[0], 1e3), _clip(out.slip_velocity_m_s[1], 1e3)),
-            "accel_y_m_s2": _clip(out.accel_y_m_s2, 1e4),
+            "velocity_m_s": (clip_finite(out.slip_velocity_m_s[0], 1e3), clip_finite(out.slip_velocity_m_s[1], 1e3)),
+            "accel_y_m_s2": clip_finite(out.accel_y_m_s2, 1e4),
         })
         publish("sim/truth", {
             "object_position_m": _vec(out.object_position_m),
             "object_velocity_m_s": _vec(out.object_velocity_m_s, 1e3),
             "held_by": out.held_by,
             "dropped": bool(out.dropped),
-            "slip_m": _clip(out.slip_m, 10.0),
-            "grip_force_n": max(0.0, _clip(out.grip_force_n, 1e4)),
+            "slip_m": clip_finite(out.slip_m, 10.0),
+            "grip_force_n": max(0.0, clip_finite(out.grip_force_n, 1e4)),
             "receiver_hand_position_m": _vec(out.receiver_hand_m),
-            "receiver_pull_n": _clip(out.receiver_pull_n, 1e4),
+            "receiver_pull_n": clip_finite(out.receiver_pull_n, 1e4),
             "tool_position_m": _vec(self._tool),
             "tool_speed_m_s": min(self._tool_speed, 1000.0),
             "kinect_hand_truth_m": _vec(out.receiver_hand_m),
