@@ -60,7 +60,7 @@ class Watchdog:
         streams: data stream (topic suffix) → owning service, for the streams to watch.
     """
 
-    def __init__(self, services: list[str], heartbeat_timeout_s: float = 0.2, stream_timeout_s: float = 0.15,
+    def __init__(self, services: list[str], heartbeat_timeout_s: float = 0.25, stream_timeout_s: float = 0.2,
                  streams: dict[str, str] | None = None) -> None:
         self.heartbeat_timeout_s = heartbeat_timeout_s
         self.stream_timeout_s = stream_timeout_s
