@@ -132,6 +132,7 @@ class GripperCore:
         self.released = False
         self.last_command_n = float(self.config.hold_grip_force_n)
         self._zero_since_s: float | None = None
+        self._failure_reason: str | None = None  # last controller failure, until a step succeeds
         self._new_wrench = False
         self._new_motion = False
         self._next_step_s = -math.inf
@@ -279,7 +280,10 @@ class GripperCore:
         if stale:
             return self._hold("; ".join(stale), fresh=False)
         if not self._new_wrench:
-            # Fresh but nothing new since the last step (watchdog tick): keep the command.
+            # Fresh but nothing new since the last step (watchdog tick): keep the command, and
+            # keep reporting a controller failure until a step succeeds.
+            if self._failure_reason is not None:
+                return self._decision(self.last_command_n, "hold", self._failure_reason, True, stepped=False)
             mode = MODE_NAMES.get(int(self.controller.mode[0]), "grasp") if self.steps else "grasp"
             return self._decision(self.last_command_n, mode, "", True, stepped=False)
         sample = self._sample(now_s)
@@ -287,11 +291,14 @@ class GripperCore:
             command = np.asarray(self.controller.step(sample), dtype=float).reshape(-1)
             force = float(command[0])
         except (GripperError, ValueError, IndexError, FloatingPointError) as exc:
-            return self._hold(f"controller {self.config.controller} failed: {exc}", fresh=True)
+            self._failure_reason = f"controller {self.config.controller} failed: {exc}"
+            return self._hold(self._failure_reason, fresh=True)
         finally:
             self._new_wrench = self._new_motion = False
         if not math.isfinite(force):
-            return self._hold(f"controller {self.config.controller} returned a non-finite force", fresh=True)
+            self._failure_reason = f"controller {self.config.controller} returned a non-finite force"
+            return self._hold(self._failure_reason, fresh=True)
+        self._failure_reason = None
         period = self.config.period_s
         grid_s = self._next_step_s if now_s - self._next_step_s < period else now_s  # resync after a gap
         self._next_step_s = grid_s + period

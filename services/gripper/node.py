@@ -23,6 +23,7 @@ Undecodable payloads are dropped at the edge (counted, named in the state's reas
 from __future__ import annotations
 
 import logging
+import re
 import threading
 import time
 from collections import deque
@@ -34,7 +35,7 @@ from bus_schema import decode, topics
 from bus_schema.codec import DecodeError
 from services.gripper.config import GripperConfig
 from services.gripper.core import GripDecision, GripperCore, MotionReading, WrenchReading
-from services.runtime import Profile, ServiceNode, kv
+from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +44,8 @@ SERVICE_NAME = "gripper"
 _MAX_WAIT_S = 0.02
 #: Latency samples kept for the exit log (wrench receive → command published).
 _LATENCY_WINDOW = 20_000
+#: At most one "holding the grip" warning per kind of reason per this many seconds.
+HOLD_LOG_PERIOD_S = 2.0
 
 
 class _GripperLoop:
@@ -60,6 +63,7 @@ class _GripperLoop:
         self.rejected = {"wrist_wrench": 0, "object_motion": 0}
         self.latency_s: deque[float] = deque(maxlen=_LATENCY_WINDOW)
         self._bad_log_s = -1.0
+        self.hold_log = RateLimitedLog(log, HOLD_LOG_PERIOD_S)
 
     # ------------------------------------------------------------------ Zenoh threads
     def _decode(self, stream: str, topic, sample: zenoh.Sample):
@@ -113,7 +117,10 @@ class _GripperLoop:
         key = (decision.mode, decision.sensors_fresh, decision.released, decision.reason)
         if key != self.last_key or now_s - self.last_state_s >= self.state_period_s:
             if key != self.last_key and decision.mode == "hold":
-                log.warning("holding the grip", extra=kv(reason=decision.reason))
+                # One warning per kind of reason per period ("stale for 0.053 s" and "0.061 s"
+                # are one kind); the state message carries every change.
+                self.hold_log.warning(re.sub(r"[0-9.]+", "#", decision.reason), "holding the grip",
+                                      reason=decision.reason)
             self.state_pub.put(mode=decision.mode, grip_force_n=decision.grip_force_n,
                                controller=self.config.controller, sensors_fresh=decision.sensors_fresh,
                                released=decision.released, reason=decision.reason)

@@ -5,7 +5,8 @@ session, declare the liveliness token and subscribe first, and only then import 
 load Baxter's model; messages that arrive meanwhile wait in the queue. The Zenoh callback
 only enqueues (key, payload, receive time in ns); the main thread decodes and writes through
 `writer.RecordingWriter`, which batches and flushes every `batch_period_s`. On SIGTERM/SIGINT
-the recorder drains the queue, writes and flushes before exit; on SIGKILL the file is valid up
+the recorder keeps listening until the bus has been quiet for 0.15 s (at most 1 s: the last
+service's final messages may still be in flight), drains the queue, writes and flushes before exit; on SIGKILL the file is valid up
 to the last flush.
 
 This module imports neither Rerun nor NumPy at import time (start-up speed).
@@ -52,6 +53,19 @@ def drain(inbox: queue.SimpleQueue, writer) -> None:
         writer.handle(key, payload, receive_ns)
 
 
+def settle(inbox: queue.SimpleQueue, writer, quiet_s: float = 0.15, max_s: float = 1.0) -> None:
+    """After a stop request: keep handing over messages until none arrived for `quiet_s`
+    (at most `max_s`). The launcher stops the recorder right after the last other service,
+    whose final messages may still be on their way through the router."""
+    deadline = time.monotonic() + max_s
+    while (left := deadline - time.monotonic()) > 0:
+        try:
+            key, payload, receive_ns = inbox.get(timeout=min(quiet_s, left))
+        except queue.Empty:
+            return
+        writer.handle(key, payload, receive_ns)
+
+
 def default_output_path(directory: Path, run_id: str) -> Path:
     return directory / f"handover-{run_id}.rrd"
 
@@ -80,6 +94,7 @@ def run_recorder(profile: Profile, output: Path, log_urdf: bool = True,
         log.info("recording", extra=kv(output=str(output), keys=f"{profile.prefix}/**"))
         try:
             consume(inbox, writer, lambda: node.should_stop, node.heartbeat)
+            settle(inbox, writer)
         finally:
             subscriber.undeclare()
             drain(inbox, writer)  # what arrived before the subscriber closed

@@ -90,7 +90,8 @@ def test_demo_moves_the_arm_and_the_recording_holds_the_motion(tmp_path):
         times, values = series[f"/robot/joint_position/{name}"]
         recorded = dict(zip(times.tolist(), values.tolist(), strict=True))
         matched = [(recorded[m.stamp_ns], m.position_rad[j]) for m in published if m.stamp_ns in recorded]
-        assert len(matched) == len(published), f"{name}: only {len(matched)}/{len(published)} recorded"
+        missing = [i for i, m in enumerate(published) if m.stamp_ns not in recorded]
+        assert len(matched) == len(published), f"{name}: only {len(matched)}/{len(published)} recorded; missing indices {missing[:20]}"
         rec_vals, pub_vals = np.array(matched).T
         assert np.array_equal(rec_vals, pub_vals)
 

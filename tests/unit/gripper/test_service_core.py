@@ -105,6 +105,14 @@ def test_controller_failure_holds():
     feed(core, 0.0, fy=-1.0, motion=False)  # HI needs a downward load on its first sample
     d = core.tick(0.0)
     assert d.mode == "hold" and "controller HI failed" in d.reason and d.grip_force_n == 9.0
+    # A watchdog tick with nothing new keeps saying why it holds (no hold/grasp flapping).
+    again = core.tick(0.005)
+    assert again.mode == "hold" and again.reason == d.reason and again.grip_force_n == 9.0
+    # A good sample clears it: the controller steps and the reason goes.
+    feed(core, 0.01, fy=W, motion=False)
+    ok = core.tick(0.01)
+    assert ok.stepped and ok.mode != "hold" and ok.reason == ""
+    assert core.tick(0.012).mode != "hold"
 
 
 def test_release_is_confirmed_latched_and_announced_once():
