@@ -29,6 +29,8 @@ overshoot` compares two controllers only on the taking episodes both handed over
 
 from __future__ import annotations
 
+import math
+import warnings
 from dataclasses import dataclass
 from enum import IntEnum
 
@@ -184,16 +186,60 @@ def classify_drops(controller: AttributedOutcome, reference_dropped: np.ndarray)
     return np.where(o.dropped, cls, DropClass.NONE).astype(np.int8)
 
 
-def paired_overshoot(a: BatchOutcome, b: BatchOutcome, taking: np.ndarray) -> dict:
+def paired_difference_ci(a_n: np.ndarray, b_n: np.ndarray, q: float, level: float = 0.95,
+                         n_resamples: int = 2000, seed: int = 0) -> tuple[float, float, float]:
+    """Difference of the `q`-th percentiles of paired samples a − b (same episodes), N, with a
+    paired bootstrap confidence interval (`scipy.stats.bootstrap`, BCa, `level`).
+
+    Returns (difference, CI low, CI high). A CI that contains 0 means the data do not show a
+    difference at that level."""
+    from scipy.stats import bootstrap
+
+    a_n, b_n = np.asarray(a_n, dtype=float), np.asarray(b_n, dtype=float)
+    if a_n.shape != b_n.shape or a_n.ndim != 1 or a_n.size < 2:
+        raise ValueError("paired_difference_ci needs two 1-D samples of the same length (≥ 2)")
+
+    def stat(x, y, axis=-1):
+        return np.percentile(x, q, axis=axis) - np.percentile(y, q, axis=axis)
+
+    diff = float(stat(a_n, b_n))
+    shift = a_n - b_n
+    if np.allclose(shift, shift[0], rtol=0.0, atol=1e-9):
+        return diff, diff, diff  # a constant shift: every resample gives the same difference
+    low = high = float("nan")
+    for method in ("BCa", "percentile"):  # BCa is undefined on degenerate resamples
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            res = bootstrap((a_n, b_n), stat, paired=True, vectorized=True, n_resamples=n_resamples,
+                            confidence_level=level, method=method, random_state=np.random.default_rng(seed))
+        low, high = (float(v) for v in res.confidence_interval)
+        if math.isfinite(low) and math.isfinite(high):
+            break
+    return diff, low, high
+
+
+def paired_overshoot(a: BatchOutcome, b: BatchOutcome, taking: np.ndarray, ci: bool = False) -> dict:
     """Force overshoot of `a` and `b` on the taking episodes both handed over, N.
 
     Returns counts, the medians and p95 of each, and the median of the per-episode
-    difference a − b."""
+    difference a − b. With `ci`: also the paired bootstrap 95 % CIs of the differences of
+    the medians and of the p95s, on these episodes (``*_handed_over``) and on all taking
+    episodes (``*_all_taking``: the benchmark table's population, drops included)."""
     both = np.asarray(taking, dtype=bool) & a.handed_over & b.handed_over
     oa, ob = a.force_overshoot_n[both], b.force_overshoot_n[both]
     if not both.any():
         return {"episodes": 0}
-    return {"episodes": int(both.sum()),
-            "a_median_n": float(np.median(oa)), "a_p95_n": float(np.percentile(oa, 95)),
-            "b_median_n": float(np.median(ob)), "b_p95_n": float(np.percentile(ob, 95)),
-            "median_difference_n": float(np.median(oa - ob))}
+    out = {"episodes": int(both.sum()),
+           "a_median_n": float(np.median(oa)), "a_p95_n": float(np.percentile(oa, 95)),
+           "b_median_n": float(np.median(ob)), "b_p95_n": float(np.percentile(ob, 95)),
+           "median_difference_n": float(np.median(oa - ob))}
+    if ci:
+        take = np.asarray(taking, dtype=bool)
+        ta, tb = a.force_overshoot_n[take], b.force_overshoot_n[take]
+        ok = np.isfinite(ta) & np.isfinite(tb)
+        for label, (x, y) in (("handed_over", (oa, ob)), ("all_taking", (ta[ok], tb[ok]))):
+            for name, q in (("median", 50.0), ("p95", 95.0)):
+                d, lo, hi = paired_difference_ci(x, y, q)
+                out[f"{name}_diff_{label}_n"] = d
+                out[f"{name}_diff_{label}_ci_n"] = (lo, hi)
+    return out

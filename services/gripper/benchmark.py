@@ -283,7 +283,7 @@ def paired_overshoot_rows(result: BenchResult, against: str = "SG") -> list[dict
     for name, out in result.outcomes.items():
         if name in REFERENCES or name == against:
             continue
-        rows.append({"other": name, **paired_overshoot(result.outcomes[against], out, take)})
+        rows.append({"other": name, **paired_overshoot(result.outcomes[against], out, take, ci=True)})
     return rows
 
 
@@ -474,6 +474,20 @@ def main(argv: list[str] | None = None) -> int:
                     print(f"SG vs {r['other']}: {r['episodes']} episodes, median {r['a_median_n']:.2f} vs "
                           f"{r['b_median_n']:.2f}, p95 {r['a_p95_n']:.2f} vs {r['b_p95_n']:.2f}, "
                           f"median paired difference {r['median_difference_n']:+.2f}")
+                    for label, what in (("handed_over", "both handed over"), ("all_taking", "all taking")):
+                        cells = []
+                        for stat in ("median", "p95"):
+                            lo, hi = r[f"{stat}_diff_{label}_ci_n"]
+                            cells.append(f"{stat} {r[f'{stat}_diff_{label}_n']:+.2f} [{lo:+.2f}, {hi:+.2f}]")
+                        print(f"    SG − {r['other']} on {what}: " + ", ".join(cells) + " N (paired bootstrap 95 % CI)")
+    if args.attribute and "SG" in result.outcomes:
+        with (args.out / "paired_overshoot.csv").open("w", newline="") as fh:
+            flat = [{k: (f"{v[0]:.4f};{v[1]:.4f}" if isinstance(v, tuple) else v) for k, v in r.items()}
+                    for r in paired_overshoot_rows(result) if r.get("episodes")]
+            if flat:
+                w = csv.DictWriter(fh, fieldnames=list(flat[0]))
+                w.writeheader()
+                w.writerows(flat)
     (args.out / "table.md").write_text(table + "\n")
     print(f"\nwrote {args.out / 'table.md'}")
     print(f"wrote {write_csv(rows, args.out / 'results.csv')}")

@@ -17,6 +17,7 @@ from services.gripper.attribution import (
     MaxHoldReference,
     ReactiveMaxHold,
     classify_drops,
+    paired_difference_ci,
     paired_overshoot,
     run_attributed,
 )
@@ -92,3 +93,31 @@ def test_no_sensor_driven_law_holds_the_default_dropping_receiver_at_50_n_per_s(
     assert not _dropped(make_controller("SG"), 6.0, 0.1)  # the bridge test's receiver
     assert _dropped(make_controller("SG"), 8.0, 0.1)
     assert not _dropped(make_controller("SG"), 15.0, 0.3)
+
+
+def test_paired_difference_ci_constant_shift_is_exact():
+    b = np.linspace(1.0, 20.0, 200)
+    assert paired_difference_ci(b + 1.0, b, 95.0) == pytest.approx((1.0, 1.0, 1.0))
+
+
+def test_paired_difference_ci_finds_no_difference_between_identically_distributed_samples():
+    rng = np.random.default_rng(3)
+    a, b = rng.exponential(5.0, 3000), rng.exponential(5.0, 3000)
+    d, lo, hi = paired_difference_ci(a, b, 95.0)
+    assert lo <= 0.0 <= hi and lo <= d <= hi
+    assert hi - lo < 3.0
+
+
+def test_paired_difference_ci_covers_the_true_p95_difference_and_agrees_with_a_plain_bootstrap():
+    rng = np.random.default_rng(4)
+    b = rng.exponential(5.0, 4000)
+    a = 1.5 * b  # p95 of exp(scale 5) = 5 ln 20 = 14.98 N; 1.5 x → difference 7.49 N
+    d, lo, hi = paired_difference_ci(a, b, 95.0)
+    assert lo > 0.0 and lo <= 0.5 * 5 * np.log(20) <= hi
+    # Independent check: percentile bootstrap by hand, same pairs resampled.
+    idx = np.random.default_rng(5).integers(0, b.size, size=(2000, b.size))
+    diffs = np.percentile(a[idx], 95, axis=1) - np.percentile(b[idx], 95, axis=1)
+    plain_lo, plain_hi = np.percentile(diffs, [2.5, 97.5])
+    assert abs(lo - plain_lo) < 0.3 and abs(hi - plain_hi) < 0.3
+    with pytest.raises(ValueError):
+        paired_difference_ci(a, b[:10], 95.0)
