@@ -11,7 +11,6 @@
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import replace
 from pathlib import Path
 
@@ -131,19 +130,7 @@ def robot(out: Path) -> None:
     plt.close(fig)
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="Write the DJT planner figures (PNG).")
-    parser.add_argument("--out", type=Path, default=Path("docs/img"), help="output folder")
-    args = parser.parse_args(argv)
-    args.out.mkdir(parents=True, exist_ok=True)
-    plan = figure3(args.out)
-    findings(args.out)
-    robot(args.out)
-    x, z = plan.position_task_m
-    print(f"Figure 3 case optimum: x = {x * 100:+.1f} cm, z = {z * 100:.1f} cm above the table")
-    print(f"figures written to {args.out}/planner_{{figure3,findings,robot}}.png")
-    return 0
+if __name__ == "__main__":  # `python -m services.planner.figures --out docs/img`
+    from services.planner.figures_cli import main
 
-
-if __name__ == "__main__":
     raise SystemExit(main())

@@ -54,8 +54,10 @@ def run(args: argparse.Namespace) -> int:
                 pub.put(**latest)
                 last_put_s = now_s
             if note is not None:
-                if note.startswith("planned"):
-                    log.info(note)
+                if note.startswith("planned ("):
+                    # Body-size estimates drift for the first seconds of tracking: those
+                    # re-plans are DEBUG; the first plan, a moved receiver or object are INFO.
+                    log.log(logging.DEBUG if " changed by " in note else logging.INFO, note)
                 else:
                     notes.warning("plan", note)
         log.info("planner stopping after %d plans", service.plans_made)

@@ -14,6 +14,7 @@ from robot_sim.contact.controllers import ConstantGrip
 from robot_sim.contact.episode import run_vectorised
 from robot_sim.contact.receiver import stack_receivers, taking
 from services.gripper import benchmark as B
+from services.gripper.bench_cli import main as bench_main
 from services.gripper.episodes import EpisodeDistribution, EpisodeObjectParams, sample_chunk
 from services.gripper.errors import GripperError
 
@@ -81,9 +82,9 @@ def test_same_episodes_for_every_controller_and_repeatable():
 
 
 def test_cli_writes_table_and_csv_and_rejects_bad_input(tmp_path, capsys):
-    assert B.main(["--controllers", "HI", "-n", "4", "--chunk-size", "4", "--workers", "1", "--no-plots",
+    assert bench_main(["--controllers", "HI", "-n", "4", "--chunk-size", "4", "--workers", "1", "--no-plots",
                    "--no-progress", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "table.md").read_text().count("| HI |") == 1
     assert (tmp_path / "results.csv").read_text().startswith("controller,episodes,drops")
-    assert B.main(["--controllers", "FS9", "-n", "4", "--no-progress", "--out", str(tmp_path)]) == 2
+    assert bench_main(["--controllers", "FS9", "-n", "4", "--no-progress", "--out", str(tmp_path)]) == 2
     assert "unknown controller" in capsys.readouterr().err

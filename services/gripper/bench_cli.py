@@ -1,0 +1,131 @@
+"""`handover-bench`: the command line of the gripper controller benchmark
+(`services.gripper.benchmark` holds the library: episodes, statistics, tables, plots).
+
+    handover-bench                                           # CI-sized: 200 episodes each
+    handover-bench -n 5000 --seed 1 --controllers FS1 HI SG --attribute --out out/gripper_bench_v2
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import logging
+import sys
+from pathlib import Path
+
+from services.gripper.benchmark import (
+    DEFAULT_CONTROLLERS,
+    REFERENCES,
+    TUNING_SEED,
+    attribution_table,
+    drop_attribution,
+    markdown_table,
+    paired_drop_test,
+    paired_overshoot_rows,
+    run_benchmark,
+    summarise,
+    write_csv,
+    write_plots,
+)
+from services.gripper.controllers import CONTROLLER_NAMES
+from services.gripper.errors import GripperError
+
+
+
+
+def _positive_int(text: str) -> int:
+    v = int(text)
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} must be a positive integer")
+    return v
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="handover-bench",
+        description="Monte-Carlo benchmark of the gripper release controllers on the realistic contact plant.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    p.add_argument("--controllers", nargs="+", default=list(DEFAULT_CONTROLLERS), metavar="NAME",
+                   help=f"controllers to compare (known: {', '.join(CONTROLLER_NAMES)})")
+    p.add_argument("-n", "--episodes", type=_positive_int, default=200, help="episodes per controller")
+    p.add_argument("--seed", type=int, default=1,
+                   help=f"episode seed (the SG controller was tuned on seed {TUNING_SEED}: evaluate on others)")
+    p.add_argument("--workers", type=_positive_int, default=None, help="processes (default: all cores)")
+    p.add_argument("--chunk-size", type=_positive_int, default=250, help="episodes per vectorised chunk")
+    p.add_argument("--out", type=Path, default=Path("out/gripper_bench"), help="folder for table.md, results.csv, plots")
+    p.add_argument("--img-dir", type=Path, default=None, help="also write the plots here (e.g. docs/img)")
+    p.add_argument("--attribute", action="store_true",
+                   help="also run the max-hold and reactive-max-hold references and attribute every drop "
+                        "(unavoidable, actuator-limited, receiver let go, controller); paired overshoot vs SG")
+    p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument("--log-level", default="warning", choices=["debug", "info", "warning", "error"])
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of `handover-bench`; returns the exit code (2 on bad input)."""
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
+    try:
+        result = run_benchmark(args.controllers, args.episodes, seed=args.seed, workers=args.workers,
+                               chunk_size=args.chunk_size, progress=not args.no_progress, attribute=args.attribute)
+    except GripperError as exc:
+        print(f"handover-bench: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("handover-bench: interrupted", file=sys.stderr)
+        return 130
+    rows = summarise(result)
+    table = markdown_table(rows)
+    print(f"\n{args.episodes} episodes per controller, seed {args.seed}, {result.wall_time_s:.1f} s\n")
+    print(table)
+    tests = []
+    if "SG" in result.outcomes:
+        for other in result.outcomes:
+            if other != "SG" and other not in REFERENCES:
+                t = paired_drop_test(result, "SG", other)
+                tests.append(t)
+                print(f"paired drops SG vs {other}: SG-only {t['only_a_drops']}, {other}-only {t['only_b_drops']}, "
+                      f"McNemar exact p = {t['p_value']:.2g}")
+    args.out.mkdir(parents=True, exist_ok=True)
+    if args.attribute:
+        att = drop_attribution(result)
+        att_table = attribution_table(att)
+        print("\nWho dropped it (% of all episodes; see services/gripper/attribution.py)\n")
+        print(att_table)
+        (args.out / "attribution.md").write_text(att_table + "\n")
+        if "SG" in result.outcomes:
+            print("\nForce overshoot on the taking episodes both handed over (N):")
+            for r in paired_overshoot_rows(result):
+                if r.get("episodes"):
+                    print(f"SG vs {r['other']}: {r['episodes']} episodes, median {r['a_median_n']:.2f} vs "
+                          f"{r['b_median_n']:.2f}, p95 {r['a_p95_n']:.2f} vs {r['b_p95_n']:.2f}, "
+                          f"median paired difference {r['median_difference_n']:+.2f}")
+                    for label, what in (("handed_over", "both handed over"), ("all_taking", "all taking")):
+                        cells = []
+                        for stat in ("median", "p95"):
+                            lo, hi = r[f"{stat}_diff_{label}_ci_n"]
+                            cells.append(f"{stat} {r[f'{stat}_diff_{label}_n']:+.2f} [{lo:+.2f}, {hi:+.2f}]")
+                        print(f"    SG − {r['other']} on {what}: " + ", ".join(cells) + " N (paired bootstrap 95 % CI)")
+    if args.attribute and "SG" in result.outcomes:
+        with (args.out / "paired_overshoot.csv").open("w", newline="") as fh:
+            flat = [{k: (f"{v[0]:.4f};{v[1]:.4f}" if isinstance(v, tuple) else v) for k, v in r.items()}
+                    for r in paired_overshoot_rows(result) if r.get("episodes")]
+            if flat:
+                w = csv.DictWriter(fh, fieldnames=list(flat[0]))
+                w.writeheader()
+                w.writerows(flat)
+    (args.out / "table.md").write_text(table + "\n")
+    print(f"\nwrote {args.out / 'table.md'}")
+    print(f"wrote {write_csv(rows, args.out / 'results.csv')}")
+    if tests:
+        with (args.out / "paired.csv").open("w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(tests[0]))
+            w.writeheader()
+            w.writerows(tests)
+    if not args.no_plots:
+        for d in {args.out, args.img_dir} - {None}:
+            for path in write_plots(result, rows, d):
+                print(f"wrote {path}")
+    return 0
