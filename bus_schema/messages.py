@@ -554,9 +554,6 @@ class SimTruth(Message, frozen=True, kw_only=True):
         receiver_pull_n: receiver's pull on the object along x, N.
         tool_position_m: true gripper position in the `base` frame.
         tool_speed_m_s: true gripper speed, m/s.
-        kinect_hand_truth_m: true position of the receiving (right) hand of the receiver's
-            body seen by the simulated Kinect, `base` frame (None when the Kinect is off).
-        kinect_torso_truth_m: true torso position of that body (None when the Kinect is off).
     """
 
     object_position_m: Vec3M = (0.0, 0.0, 0.0)
@@ -569,8 +566,19 @@ class SimTruth(Message, frozen=True, kw_only=True):
     receiver_pull_n: ForceN = 0.0
     tool_position_m: Vec3M = (0.0, 0.0, 0.0)
     tool_speed_m_s: SpeedMS = 0.0
-    kinect_hand_truth_m: Vec3M | None = None
-    kinect_torso_truth_m: Vec3M | None = None
+
+
+class KinectTruth(Message, frozen=True, kw_only=True):
+    """Ground truth of the body the simulated Kinect rendered in its latest frame (never
+    used for control; for tests and review), 30 Hz.
+
+    Attributes:
+        hand_position_m: true position of the receiver's right (receiving) hand, `base` frame.
+        torso_position_m: true torso position of the same body, `base` frame.
+    """
+
+    hand_position_m: Vec3M = (0.0, 0.0, 0.0)
+    torso_position_m: Vec3M = (0.0, 0.0, 0.0)
 
 
 __all__ = [
@@ -585,6 +593,7 @@ __all__ = [
     "HumanState",
     "JointCommand",
     "JointState",
+    "KinectTruth",
     "Message",
     "MotionGoal",
     "MotionStatus",

@@ -66,6 +66,7 @@ SUPERVISOR_STATE = _T("supervisor/state", m.SupervisorState, "state", 10, "super
 EPISODE = _T("supervisor/episode", m.EpisodeSummary, "state", 0, "supervisor", "episode summary")
 HEARTBEAT = _T("runtime/heartbeat", m.Heartbeat, "state", 20, "every service", "main loop running")
 SIM_TRUTH = _T("sim/truth", m.SimTruth, "state", 100, "bridge", "simulator ground truth")
+KINECT_TRUTH = _T("sim/kinect_truth", m.KinectTruth, "state", 30, "kinect", "simulated Kinect's body truth")
 del _T
 
 TOPICS: tuple[Topic, ...] = (
@@ -88,6 +89,7 @@ TOPICS: tuple[Topic, ...] = (
     EPISODE,
     HEARTBEAT,
     SIM_TRUTH,
+    KINECT_TRUTH,
 )
 TOPICS_BY_SUFFIX: dict[str, Topic] = {t.suffix: t for t in TOPICS}
 assert len(TOPICS_BY_SUFFIX) == len(TOPICS), "duplicate key in TOPICS"

@@ -7,6 +7,10 @@
 # Mesa's software Vulkan (llvmpipe), with the recorder's blueprint set to follow the newest
 # data (so the 3-D view shows the end of the run), and uses the viewer's own
 # `--screenshot-to`. The viewer listens on 127.0.0.1 only, on a free port.
+# The viewer takes its picture after a few frames, not when it has read the whole file: the
+# recorder's file (thousands of small chunks, no footer) is first compacted with
+# `rerun rrd optimize` into a temporary copy (~500 chunks), which the viewer reads in time;
+# otherwise entities whose chunks were not read yet (the skeleton, the hands) are missing.
 # Needs (Debian): xvfb mesa-vulkan-drivers libvulkan1  — apt-get install -y xvfb mesa-vulkan-drivers
 # Takes 20–60 s on two cores (software rendering, Baxter's meshes).
 set -euo pipefail
@@ -51,12 +55,19 @@ from services.recorder.blueprint import blueprint
 blueprint("baxter", follow_latest=True).save("handover", sys.argv[1])
 EOF
 
+# A compact copy of the recording (the original is not touched).
+if ! "$rerun_cli" rrd optimize "$recording" -o "$work/compact.rrd" >"$work/optimize.log" 2>&1; then
+  echo "error: rerun rrd optimize failed; its output:" >&2
+  tail -5 "$work/optimize.log" >&2
+  exit 1
+fi
+
 mkdir -p "$(dirname "$output")"
 rm -f "$output"
 mkdir -m 700 "$work/xdg"
 if ! DISPLAY=$display XDG_RUNTIME_DIR=$work/xdg WGPU_BACKEND=vulkan RUST_LOG=error \
      timeout 300 "$rerun_cli" --bind 127.0.0.1 --port auto --window-size "$size" \
-     --screenshot-to "$output" "$recording" "$work/handover.rbl" >"$work/viewer.log" 2>&1; then
+     --screenshot-to "$output" "$work/compact.rrd" "$work/handover.rbl" >"$work/viewer.log" 2>&1; then
   echo "error: the Rerun viewer failed; its output:" >&2
   tail -20 "$work/viewer.log" >&2
   exit 1

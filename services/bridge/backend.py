@@ -123,10 +123,10 @@ def _sim_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
     return {k: kwargs[k] for k in ("time_constant_s", "initial_position_rad") if k in kwargs}
 
 
-def make_backend(name: str, contact: Any = None, kinect: Any = None, **kwargs: Any) -> Backend:
+def make_backend(name: str, contact: Any = None, **kwargs: Any) -> Backend:
     """Backend by name (``sim``); with `contact` enabled, the sim runs the contact plant
     (``transfer`` scenario) or the whole handover scene (``handover``, with the receiver's
-    body from `kinect`)."""
+    body from `contact.height_m` and `contact.posture`)."""
     from services.bridge.errors import BridgeConfigError
 
     if name == "sim":
@@ -134,11 +134,10 @@ def make_backend(name: str, contact: Any = None, kinect: Any = None, **kwargs: A
             from robot_sim.handover_scene import SceneParams
             from services.bridge.handover_backend import HandoverSimBackend
 
-            body = {} if kinect is None else {"height_m": kinect.height_m, "posture": kinect.posture}
             params = SceneParams(behaviour=contact.behaviour, receiver=dict(contact.receiver),
                                  pull_angle_deg=contact.pull_angle_deg, object_mass_kg=contact.object_mass_kg,
                                  mu_static=contact.mu_static, mu_kinetic=contact.mu_kinetic, seed=contact.seed,
-                                 **body)
+                                 height_m=contact.height_m, posture=contact.posture)
             return HandoverSimBackend(params, **_sim_kwargs(kwargs))
         if contact is not None and contact.enabled:
             from services.bridge.contact_backend import ContactSimBackend

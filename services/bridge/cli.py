@@ -32,15 +32,14 @@ def _run(args: argparse.Namespace) -> int:
     if args.scenario:
         contact["scenario"] = args.scenario
         table["contact"] = contact
-    kinect = dict(table.get("kinect", {}))
-    if args.kinect or args.no_kinect:
-        kinect["enabled"] = bool(args.kinect)
     if args.posture:
-        kinect["posture"] = args.posture
+        contact["posture"] = args.posture
+        table["contact"] = contact
     if args.height_m is not None:
-        kinect["height_m"] = args.height_m
-    if kinect:
-        table["kinect"] = kinect
+        contact["height_m"] = args.height_m
+        table["contact"] = contact
+    if args.stop_on_tick:
+        table["stop_wakes_loop"] = False
     return run_bridge(profile, parse_config(table))
 
 
@@ -48,8 +47,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = base_parser(
         "handover-bridge",
         "Robot bridge: publishes joint state at the configured rate, follows joint commands, "
-        "holds the arm when no fresh command arrives within the time-out (200 ms), and "
-        "rejects commands with unknown joints or out-of-limit values.",
+        "holds the arm when no fresh command arrives within the time-out (200 ms), "
+        "rejects commands with unknown joints or out-of-limit values, and brakes at once on "
+        "motion/stop. The simulated Kinect is its own service (python -m services.sim_kinect).",
     )
     parser.add_argument("--backend", choices=["sim", "baxter"], default=None,
                         help="robot backend (overrides [services.bridge.config].backend); baxter: the real "
@@ -65,10 +65,13 @@ def main(argv: list[str] | None = None) -> int:
     sim.add_argument("--scenario", choices=["handover", "transfer"], default=None,
                      help="handover: object on the table, pick, reach, contact when the receiver's hand "
                           "arrives; transfer: object in the gripper from the start (controller tests)")
-    sim.add_argument("--posture", choices=["standing", "sitting"], default=None, help="the receiver's posture")
-    sim.add_argument("--height-m", type=float, default=None, help="the receiver's height, m")
-    sim.add_argument("--kinect", action="store_true", help="publish the simulated Kinect's skeleton and depth")
-    sim.add_argument("--no-kinect", action="store_true", help="do not simulate the Kinect")
+    sim.add_argument("--posture", choices=["standing", "sitting"], default=None,
+                     help="the scene receiver's posture (give the kinect service the same)")
+    sim.add_argument("--height-m", type=float, default=None,
+                     help="the scene receiver's height, m (give the kinect service the same)")
+    parser.add_argument("--stop-on-tick", action="store_true",
+                        help="act on motion/stop only at the next 100 Hz tick (old behaviour, for benchmarks); "
+                             "default: a stop wakes the loop at once")
     return run_main(_run, parser.parse_args(argv))
 
 

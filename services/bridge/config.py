@@ -33,6 +33,10 @@ class ContactConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
         seed: noise seed of the plant.
         receiver: extra behaviour parameters (e.g. ``reach_start_s = 2.0``), see
             `robot_sim.contact.receiver`.
+        height_m, posture: the receiver's body in the ``handover`` scene (its reach and where
+            its hand rests), m. The simulated Kinect service renders the same receiver: give
+            it the same values (`[services.kinect.config]`; the launcher passes
+            ``--posture``/``--seed`` to both).
     """
 
     enabled: bool = False
@@ -45,30 +49,8 @@ class ContactConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
     initial_grip_force_n: Annotated[float, Meta(ge=0.0, le=140.0)] = 10.0
     seed: Annotated[int, Meta(ge=0, le=2**32 - 1)] = 0
     receiver: dict[str, float] = {}
-
-
-class KinectConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
-    """The simulated Kinect run by the sim backend (`[services.bridge.config.kinect]`).
-
-    Attributes:
-        enabled: render depth and produce the skeleton (robot_sim.kinect) at `rate_hz`.
-        rate_hz: frame rate, Hz (Kinect: 30).
-        height_m: receiver's height, m.
-        posture: standing or sitting.
-        hand_target_base_m: where the receiver's right hand reaches (base frame, m); empty:
-            the hand stays at rest.
-        reach_start_s, reach_duration_s: when and how long the reach takes, s from start.
-        seed: noise seed.
-    """
-
-    enabled: bool = False
-    rate_hz: Annotated[float, Meta(gt=0.0, le=60.0)] = 30.0
-    height_m: Annotated[float, Meta(ge=1.0, le=2.3)] = 1.75
+    height_m: Annotated[float, Meta(ge=1.2, le=2.2)] = 1.75
     posture: Literal["standing", "sitting"] = "standing"
-    hand_target_base_m: Annotated[list[Annotated[float, Meta(ge=-5.0, le=5.0)]], Meta(max_length=3)] = []
-    reach_start_s: Annotated[float, Meta(ge=0.0, le=600.0)] = 0.5
-    reach_duration_s: Annotated[float, Meta(gt=0.0, le=60.0)] = 1.5
-    seed: Annotated[int, Meta(ge=0, le=2**32 - 1)] = 0
 
 
 class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
@@ -87,8 +69,11 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
             deceleration, rad/s², then holds.
         initial_position_rad: start posture of the simulated arm (7 values), rad; empty for
             the default home posture.
+        stop_wakes_loop: a `motion/stop` wakes the loop at once for an extra tick (brake
+            engaged and joint state published within ~1 ms of the stop's arrival); False:
+            the stop waits for the next tick of the 100 Hz grid (up to one period later; the
+            baseline of tests/bench/test_bench_bridge_stop.py).
         contact: the contact plant (gripper, object, receiver, sensors).
-        kinect: the simulated Kinect (skeleton and depth of the receiver).
         baxter: the Baxter backend (ROS 1 topics over Zenoh, safety on hardware).
     """
 
@@ -99,8 +84,8 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
     limit_tolerance_rad: Annotated[float, Meta(ge=0.0, le=0.1)] = 1e-3
     stop_deceleration_rad_s2: Annotated[float, Meta(gt=0.0, le=1000.0)] = 40.0
     initial_position_rad: Annotated[list[Annotated[float, Meta(ge=-10.0, le=10.0)]], Meta(max_length=7)] = []
+    stop_wakes_loop: bool = True
     contact: ContactConfig = ContactConfig()
-    kinect: KinectConfig = KinectConfig()
     baxter: BaxterConfig = BaxterConfig()
 
 
@@ -110,6 +95,12 @@ def parse_config(table: dict[str, Any]) -> BridgeConfig:
     Raises:
         BridgeConfigError: naming the bad key (e.g. ``Expected `float` >= 1.0 - at `$.rate_hz```).
     """
+    if "kinect" in table:
+        raise BridgeConfigError(
+            "invalid [services.bridge.config]: the simulated Kinect is its own service now: move "
+            "[services.bridge.config.kinect] to [services.kinect.config] (module services.sim_kinect), "
+            "or delete it where no Kinect is simulated"
+        )
     try:
         cfg = msgspec.convert(table, BridgeConfig)
     except msgspec.ValidationError as exc:
@@ -118,6 +109,4 @@ def parse_config(table: dict[str, Any]) -> BridgeConfig:
         raise BridgeConfigError(
             "invalid [services.bridge.config]: initial_position_rad needs 7 values (right_s0…right_w2)"
         )
-    if cfg.kinect.hand_target_base_m and len(cfg.kinect.hand_target_base_m) != 3:
-        raise BridgeConfigError("invalid [services.bridge.config.kinect]: hand_target_base_m needs 3 values (x, y, z)")
     return cfg

@@ -9,8 +9,10 @@ publishes
 - `sim/truth`: object, receiver hand and tool in Baxter's `base` frame, who holds the object,
   whether it was dropped.
 
-The scene's receiver also drives the simulated Kinect's body (`scene_snapshot`), so the
-skeleton the tracker sees and the hand that takes the object are the same hand. A new
+The scene's receiver also drives the simulated Kinect's body (the `kinect` service reads
+`receiver_hand_position_m` and `object_position_m` of `sim/truth`; the fake Baxter's own
+Kinect thread uses `scene_snapshot`), so the skeleton the tracker sees and the hand that
+takes the object are the same hand. A new
 supervisor episode (`new_episode`) puts the object back on the table and the receiver's
 hand back at rest: the lab assistant resetting the scene.
 """
@@ -106,5 +108,4 @@ class HandoverSimBackend(SimBackend):
             "receiver_pull_n": clip_finite(out.receiver_pull_n, 1e4),
             "tool_position_m": _vec(self._tool),
             "tool_speed_m_s": min(self._tool_speed, 1000.0),
-            "kinect_hand_truth_m": _vec(out.receiver_hand_m),
         })

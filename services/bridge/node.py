@@ -5,7 +5,13 @@ the `CommandGate`, step the backend, servo or hold, publish `robot/joint_state`.
 
 A `motion/stop` (release interrupt or protective stop) is acted on here too, without the
 motion service: the `StopBrake` brings the arm to rest with a bounded deceleration and
-ignores the stopped goal's commands. A new supervisor episode resets a simulated scene.
+ignores the stopped goal's commands. The stop does not wait for the next tick: its arrival
+wakes the loop (`StopTicker`), which runs a tick at once with the real elapsed dt, so the
+joint state with the brake engaged is published within about a millisecond. A new
+supervisor episode resets a simulated scene.
+
+The simulated Kinect is not here: it is its own service (`services.sim_kinect`), so its
+~16 ms depth frames do not delay this loop through the GIL.
 """
 
 from __future__ import annotations
@@ -20,6 +26,7 @@ from bus_schema import topics
 from services.bridge.backend import Backend, make_backend
 from services.bridge.config import BridgeConfig
 from services.bridge.core import CommandGate, StopBrake
+from services.bridge.ticker import StopTicker
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 
 log = logging.getLogger(__name__)
@@ -31,7 +38,7 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
     """Run the bridge until SIGINT/SIGTERM. Returns the exit code."""
     initial = np.array(config.initial_position_rad) if config.initial_position_rad else None
     backend = backend or make_backend(
-        config.backend, contact=config.contact, kinect=config.kinect, time_constant_s=config.servo_time_constant_s,
+        config.backend, contact=config.contact, time_constant_s=config.servo_time_constant_s,
         initial_position_rad=initial, profile=profile, baxter=config.baxter,
     )
     gate = CommandGate(backend.joint_names, backend.limits, config.command_timeout_s,
@@ -39,7 +46,6 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
     reject_log = RateLimitedLog(log, 1.0)
     brake = StopBrake(config.stop_deceleration_rad_s2)
     new_episode = getattr(backend, "new_episode", None)
-    scene_snapshot = getattr(backend, "scene_snapshot", None)
     with ServiceNode(SERVICE_NAME, profile) as node:
         state_pub = node.publisher(topics.JOINT_STATE)
         commands = node.subscribe(topics.JOINT_COMMAND)
@@ -51,34 +57,35 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
         extra_pubs: dict[str, Any] = {}
 
         def publish_extra(suffix: str, fields: dict[str, Any]) -> None:
-            if suffix == topics.SIM_TRUTH.suffix and kinect is not None:
-                fields = {**fields, **kinect.truth_fields()}
             pub = extra_pubs.get(suffix)
             if pub is None:
                 pub = extra_pubs[suffix] = node.publisher(topics.TOPICS_BY_SUFFIX[suffix])
             pub.put(**fields)
 
-        kinect = None
-        if config.kinect.enabled:
-            from services.bridge.kinect_thread import KinectThread
+        handled_stop: list[Any] = [None]  # the newest stop drained so far
 
-            kinect = KinectThread(config.kinect, node)
-            if not config.contact.enabled:  # nobody else publishes sim/truth
-                kinect.publish_own_truth(node)
-            kinect.update_arm(backend.read().position_rad)
-            kinect.start()
+        def stop_pending() -> bool:
+            latest = stops.latest()
+            return latest is not None and latest is not handled_stop[0]
+
+        ticker = StopTicker(node, config.rate_hz, stop_pending if config.stop_wakes_loop else None,
+                            name=f"{SERVICE_NAME} {config.rate_hz:g} Hz loop")
         log.info("bridge running", extra=kv(backend=backend.name, rate_hz=config.rate_hz,
-                                            command_timeout_s=config.command_timeout_s))
+                                            command_timeout_s=config.command_timeout_s,
+                                            stop_wakes_loop=config.stop_wakes_loop))
         last_s = time.monotonic()
         was_holding = True
         try:
-            for _tick in node.loop(config.rate_hz):
+            for _urgent in ticker:
                 now_s = time.monotonic()
                 dt_s, last_s = now_s - last_s, now_s
                 measured = backend.read()
                 current = measured.position_rad
+                new_stops = stops.drain()
+                if new_stops:
+                    handled_stop[0] = new_stops[-1]
                 # Stops and goals in arrival order: a goal counts only if it came after the stop.
-                events = sorted([(rx.rx_monotonic, 0, rx) for rx in stops.drain()]
+                events = sorted([(rx.rx_monotonic, 0, rx) for rx in new_stops]
                                 + [(rx.rx_monotonic, 1, rx) for rx in goals.drain()], key=lambda e: (e[0], e[1]))
                 for _t, kind, rx in events:
                     if kind == 1:
@@ -135,15 +142,10 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                     enabled=bool(getattr(backend, "enabled", True)),
                 )
                 backend.publish_extras(publish_extra)
-                if kinect is not None:
-                    if scene_snapshot is not None:
-                        kinect.update_arm(reading.position_rad, *scene_snapshot())
-                    else:
-                        kinect.update_arm(reading.position_rad)
         finally:
-            if kinect is not None:
-                kinect.stop()
             backend.close()
             log.info("bridge stopped", extra=kv(accepted=gate.accepted, rejected=gate.rejected,
-                                                ignored_after_stop=brake.ignored_commands))
+                                                ignored_after_stop=brake.ignored_commands,
+                                                ticks=ticker.stats.ticks, stop_ticks=ticker.stats.urgent_ticks,
+                                                overruns=ticker.stats.overruns))
     return 0

@@ -5,10 +5,12 @@ No processes are started here; `services/launcher/processes.py` does that.
 
 from __future__ import annotations
 
+import copy
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from services.runtime.profile import Profile, ServiceSpec
 
@@ -86,3 +88,45 @@ def recording_path(directory: Path, run_id: str, attempt: int = 0) -> Path:
 def prefix_line(name: str, line: str, width: int) -> str:
     """A child's output line with its ``[name]`` prefix, names padded to `width`."""
     return f"[{name}]".ljust(width + 2) + " " + line.rstrip("\n") + "\n"
+
+
+def startup_times_s(started_monotonic: dict[str, float],
+                    events: Sequence[tuple[float, str, bool]]) -> dict[str, float]:
+    """Seconds from each service's spawn to its first liveliness token after the spawn.
+
+    Args:
+        started_monotonic: service → monotonic time its process was started, s.
+        events: (monotonic time s, service, alive) liveliness changes, in arrival order.
+
+    Returns:
+        service → spawn-to-alive time, s, for the services seen alive since their spawn.
+    """
+    out: dict[str, float] = {}
+    for t, name, alive in events:
+        started = started_monotonic.get(name)
+        if alive and started is not None and name not in out and t >= started:
+            out[name] = t - started
+    return out
+
+
+def format_startup_times(started_monotonic: dict[str, float],
+                         events: Sequence[tuple[float, str, bool]]) -> str:
+    """One line: every service's spawn-to-alive time, slowest first (``motion 2.10 s, …``)."""
+    times = startup_times_s(started_monotonic, events)
+    ordered = sorted(times.items(), key=lambda item: (-item[1], item[0]))
+    return ", ".join(f"{name} {seconds:.2f} s" for name, seconds in ordered)
+
+
+def router_zenoh_overrides(profile_overrides: dict[str, Any]) -> dict[str, Any]:
+    """The profile's ``[bus.zenoh]`` overrides for the launcher's router session, with
+    ``scouting.delay = 0`` unless the profile sets a delay itself.
+
+    Zenoh's `open` waits `scouting.delay` (500 ms by default) for scouting answers before it
+    returns; scouting is always off in this stack (multicast and gossip disabled, and the
+    router connects to nobody), so that wait only delays every start-up by half a second.
+    """
+    merged = copy.deepcopy(profile_overrides)
+    scouting = merged.setdefault("scouting", {})
+    if isinstance(scouting, dict):
+        scouting.setdefault("delay", 0)
+    return merged

@@ -17,14 +17,16 @@ from __future__ import annotations
 import signal
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from services.launcher.core import (
     RECORDER,
     decide_restart,
     describe_exit,
+    format_startup_times,
     recording_path,
+    router_zenoh_overrides,
     service_command,
     shutdown_order,
     start_order,
@@ -71,11 +73,12 @@ class LaunchOptions:
     def service_args(self, name: str, scene_service: str = "bridge") -> list[str]:
         """Command-line overrides for service `name` (receiver, posture, seed → the service
         that simulates the scene: the bridge, or the fake Baxter when the profile has one;
-        episodes → the supervisor)."""
+        posture and seed also → the simulated Kinect service ``kinect``, which renders the
+        same receiver; episodes → the supervisor)."""
         args: list[str] = []
-        if name == scene_service:
-            if self.receiver is not None:
-                args += ["--receiver", self.receiver]
+        if name == scene_service and self.receiver is not None:
+            args += ["--receiver", self.receiver]
+        if name in (scene_service, "kinect"):
             if self.posture is not None:
                 args += ["--posture", self.posture]
             if self.seed is not None:
@@ -120,7 +123,7 @@ class Launcher:
     def _start(self, name: str) -> Child:
         spec = next(s for s in self.specs if s.name == name)
         child = Child(name, service_command(spec, self.profile, self._extra_args(name, self.restarts[name])),
-                      self.width)
+                      self.width, nice=spec.nice)
         child.start()
         self.children[name] = child
         return child
@@ -198,7 +201,9 @@ class Launcher:
         previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         t0 = time.monotonic()
         try:
-            router = open_session(self.profile, "router", timeout_s=0.0)
+            router_profile = replace(self.profile,
+                                     zenoh_overrides=router_zenoh_overrides(self.profile.zenoh_overrides))
+            router = open_session(router_profile, "router", timeout_s=0.0)
         except BusError as exc:
             for s, h in previous.items():
                 signal.signal(s, h)
@@ -213,13 +218,16 @@ class Launcher:
             say(f"bus on {self.profile.endpoint} (router in-process, loopback only, prefix {self.profile.prefix})")
             for spec in self.specs:
                 child = self._start(spec.name)
-                say(f"started {spec.name} (pid {child.pid}): python -m {spec.module}")
+                niceness = f" at nice {spec.nice}" if spec.nice else ""
+                say(f"started {spec.name} (pid {child.pid}){niceness}: python -m {spec.module}")
                 if spec.name == RECORDER:
                     # Nothing may be published before the recorder listens.
                     self._wait_alive(watcher, {RECORDER})
             alive_s = self._wait_alive(watcher)
             say(f"all {len(self.specs)} services alive {alive_s:.2f} s after start "
                 f"({time.monotonic() - t0:.2f} s after launch)")
+            say("start-up, spawn → alive: " + format_startup_times(
+                {n: c.started_monotonic for n, c in self.children.items()}, watcher.events()))
             self.alive_after_s = time.monotonic() - t0
             monitor = threading.Thread(target=self._monitor, args=(watcher,), name="monitor", daemon=True)
             monitor.start()

@@ -2,12 +2,15 @@
 
 Children run in their own process group (so a terminal's Ctrl-C reaches only the launcher,
 which then shuts them down in order) and get SIGTERM from the kernel if the launcher dies
-(Linux `PR_SET_PDEATHSIG`), so no service outlives its launcher.
+(Linux `PR_SET_PDEATHSIG`), so no service outlives its launcher. A child can be started at a
+higher niceness (lower CPU priority) than the launcher's, set before `exec` so that even its
+imports run at that priority; raising niceness needs no privilege.
 """
 
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
 import signal
 import subprocess
@@ -31,8 +34,11 @@ def emit(line: str, stream: TextIO | None = None) -> None:
         out.flush()
 
 
-def _child_setup() -> None:  # runs in the child between fork and exec
+def _child_setup(nice: int = 0) -> None:  # runs in the child between fork and exec
     os.setpgid(0, 0)
+    increment = nice - os.nice(0)
+    if increment > 0:  # never below the launcher's own niceness: lowering needs privileges
+        os.nice(increment)
     try:
         libc = ctypes.CDLL("libc.so.6", use_errno=True)
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
@@ -44,11 +50,13 @@ class Child:
     """One service process with its output prefixed ``[name]`` on the launcher's stdout."""
 
     def __init__(self, name: str, command: Sequence[str], name_width: int,
-                 env: dict[str, str] | None = None) -> None:
+                 env: dict[str, str] | None = None, nice: int = 0) -> None:
+        """`nice`: the child's niceness, 0..19 (at least the launcher's own)."""
         self.name = name
         self.command = list(command)
         self.name_width = name_width
         self.env = env
+        self.nice = nice
         self.proc: subprocess.Popen[bytes] | None = None
         self.started_monotonic = 0.0
         self._reader: threading.Thread | None = None
@@ -60,7 +68,7 @@ class Child:
             env.update(self.env)
         self.proc = subprocess.Popen(
             self.command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-            env=env, preexec_fn=_child_setup,
+            env=env, preexec_fn=functools.partial(_child_setup, self.nice),
         )
         self.started_monotonic = time.monotonic()
         self._reader = threading.Thread(target=self._pump, name=f"out-{self.name}", daemon=True)

@@ -9,10 +9,22 @@ on the right, time series of the transfer loop's signals and a text log of event
 - Object motion: a_y (m/s², down +) and slip velocity along y (m/s) from ``sensors/object_motion``;
 - Gripper mode (0 grasp, 1 slip, 2 release, 3 hold) and joint positions (rad);
 - Events: supervisor phases, motion, gripper modes, stops and the release.
+
+The 3-D view is set up explicitly rather than left to the viewer's heuristics: its target frame
+is Baxter's ``base`` (the frame the URDF's links hang from and every ``world/…`` entity is
+declared in with `CoordinateFrame`), its axes are x forward, y left, z up (FLU), and it shows
+``/world/**`` (human skeleton, hands, object, target, tool path, markers) and the robot.
+Without an explicit target frame the view's frame is the one of its origin entity ``/``
+(``tf#/``) and its axes fall back to RFU (y up) because the ``ViewCoordinates`` at ``/world``
+is not an ancestor of ``/``.
 """
 
 from __future__ import annotations
 
+import functools
+import os
+import xml.etree.ElementTree as ET
+from pathlib import Path
 from typing import Any
 
 import rerun as rr
@@ -49,16 +61,71 @@ def static_styles() -> list[tuple[str, Any]]:
     out.append(("signals/release_grip_force_n", rr.SeriesPoints(names=["release (F_G at release)"],
                                                                 colors=[(255, 40, 40)], markers=["cross"],
                                                                 marker_sizes=[8.0])))
-    out.append(("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP))
+    out.append(("world", rr.ViewCoordinates.FLU))
     # The URDF's links live in named frames under `base`; everything under /world is in
     # Baxter's base frame too: say so explicitly, so one 3-D view shows both.
     out += [(entity, rr.CoordinateFrame("base")) for entity in WORLD_ENTITIES]
     return out
 
 
-#: Default 3-D camera: from the robot's right (−y), the robot on the left, the receiver on the right.
-EYE_POSITION_M = (2.9, -2.6, 1.6)
-EYE_TARGET_M = (0.6, -0.3, 0.1)
+#: Default 3-D camera (`base` frame, m): from the robot's front right, the robot on the left, the
+#: receiver on the right, looking at the handover region.
+EYE_POSITION_M = (1.9, -1.8, 1.0)
+EYE_TARGET_M = (0.6, -0.3, 0.05)
+
+#: Frame of the 3-D view: Baxter's base (x forward, y left, z up, m).
+BASE_FRAME = "base"
+
+
+@functools.cache
+def links_without_importable_mesh(urdf: Path) -> tuple[str, ...]:
+    """Links of `urdf` whose visual mesh the Rerun 0.41 viewer cannot import.
+
+    Its Collada importer rejects ``<polylist>`` geometry (every Baxter mesh but the torso's):
+    such a link would draw nothing and the viewer would pop up one warning per mesh. Mesh
+    paths ``package://…`` are resolved with ``ROS_PACKAGE_PATH``; unreadable files count as
+    not importable.
+    """
+    roots = [Path(p) for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+    hidden: list[str] = []
+    for link in ET.parse(urdf).getroot().iter("link"):
+        for mesh in link.iterfind("visual/geometry/mesh"):
+            filename = mesh.get("filename", "")
+            if not filename.lower().endswith(".dae"):
+                continue
+            relative = filename.removeprefix("package://")
+            candidates = [root / relative for root in roots] if filename.startswith("package://") else [Path(filename)]
+            path = next((c for c in candidates if c.is_file()), None)
+            if path is None or b"<polylist" in path.read_bytes():
+                hidden.append(link.get("name", ""))
+                break
+    return tuple(hidden)
+
+
+def _robot_overrides(robot_name: str) -> dict[str, rrb.EntityBehavior]:
+    """Hide what the viewer cannot draw: collision meshes/spheres and unimportable visual meshes
+    (the arm is then drawn with its collision cylinders and boxes)."""
+    overrides = {f"{robot_name}/collision_geometries/{kind}": rrb.EntityBehavior(visible=False)
+                 for kind in ("mesh", "sphere")}
+    try:
+        from robot_sim.baxter import urdf_path
+
+        links = links_without_importable_mesh(urdf_path())
+    except Exception:  # the model is optional for a recording: then show everything
+        links = ()
+    overrides.update({f"{robot_name}/visual_geometries/{link}": rrb.EntityBehavior(visible=False) for link in links})
+    return overrides
+
+
+def view_3d(robot_name: str | None) -> rrb.Spatial3DView:
+    """The combined 3-D view: robot, human skeleton and hands, object, target, tool path, markers,
+    all in Baxter's `base` frame."""
+    contents = ["+ /world/**"] + ([f"+ /{robot_name}/**"] if robot_name else [])
+    return rrb.Spatial3DView(
+        name="Handover (base frame)", origin="/", contents=contents,
+        overrides=_robot_overrides(robot_name) if robot_name else {},
+        spatial_information=rrb.SpatialInformation(target_frame=BASE_FRAME, axes=rr.ViewCoordinates.FLU),
+        eye_controls=rrb.EyeControls3D(position=EYE_POSITION_M, look_target=EYE_TARGET_M, eye_up=(0.0, 0.0, 1.0)))
 
 
 def blueprint(robot_name: str | None, follow_latest: bool = False) -> rrb.Blueprint:
@@ -67,17 +134,10 @@ def blueprint(robot_name: str | None, follow_latest: bool = False) -> rrb.Bluepr
     `follow_latest`: the time cursor follows the newest data (the end of a recording); used
     for screenshots. By default the viewer's own choice applies.
     """
-    # Rerun 0.41 cannot import the arm's Collada meshes (polylist): the arm is drawn with its
-    # collision cylinders and boxes instead; collision meshes and spheres stay hidden.
-    overrides = {f"{robot_name}/collision_geometries/{kind}": rrb.EntityBehavior(visible=False)
-                 for kind in ("mesh", "sphere")} if robot_name else {}
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(
-                rrb.Spatial3DView(name="Handover (base frame)", origin="/", overrides=overrides,
-                                  contents=["+ /world/**"] + ([f"+ /{robot_name}/**"] if robot_name else []),
-                                  eye_controls=rrb.EyeControls3D(position=EYE_POSITION_M, look_target=EYE_TARGET_M,
-                                                                 eye_up=(0.0, 0.0, 1.0))),
+                view_3d(robot_name),
                 rrb.TextLogView(name="Events", origin="/events"),
                 row_shares=[3, 1],
             ),

@@ -1,7 +1,12 @@
-"""Read a recording back with the Rerun SDK (for `handover-recorder inspect` and tests)."""
+"""Read a recording back with the Rerun SDK (for `handover-recorder inspect` and tests).
+
+The recorder writes its files without Rerun's footer (see `writer`): they are read in one pass
+with `RrdReader.stream()`; Rerun's warning about the missing footer is expected and silenced.
+"""
 
 from __future__ import annotations
 
+import warnings
 from collections import defaultdict
 from pathlib import Path
 
@@ -16,7 +21,9 @@ def _reader(path: Path) -> rrc.RrdReader:
     if not Path(path).is_file():
         raise RecorderError(f"recording {path} does not exist")
     try:
-        return rrc.RrdReader(str(path))
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="RRD file has no footer")
+            return rrc.RrdReader(str(path))
     except Exception as exc:
         raise RecorderError(f"{path} is not a readable Rerun recording: {exc}") from None
 
@@ -93,3 +100,17 @@ def read_component(path: Path, entity: str, component: str) -> list[tuple[int, o
         rows += [(t, v) for t, v in zip(times, batch.column(names[0]).to_pylist(), strict=True) if v is not None]
     rows.sort(key=lambda r: r[0])
     return rows
+
+
+def read_static_component(path: Path, entity: str, component: str) -> list[object]:
+    """Values of one static component (e.g. ``CoordinateFrame:frame``) of `entity`, in file order."""
+    entity = entity if entity.startswith("/") else "/" + entity
+    values: list[object] = []
+    for chunk in _reader(path).stream():
+        if chunk.entity_path != entity or not chunk.is_static:
+            continue
+        batch = chunk.to_record_batch()
+        names = [n for n in batch.schema.names if n.endswith(component)]
+        if names:
+            values += [v for v in batch.column(names[0]).to_pylist() if v is not None]
+    return values

@@ -53,6 +53,8 @@ class ServiceSpec:
         safety: a safety service (never restarted mid-episode, whatever `restart` says).
         args: extra command-line arguments.
         config: the service's own config table (a dict for its typed config).
+        nice: CPU niceness the launcher starts it with, 0 (normal) to 19 (lowest priority);
+            safety services must stay at 0 so heavy non-critical ones cannot starve them.
     """
 
     name: str
@@ -63,6 +65,10 @@ class ServiceSpec:
     safety: bool = False
     args: tuple[str, ...] = ()
     config: dict[str, Any] = field(default_factory=dict)
+    nice: int = 0
+
+
+NICE_RANGE = (0, 19)
 
 
 CREDENTIALS_ENV = "HANDOVER_BUS_CREDENTIALS"
@@ -338,7 +344,7 @@ def validate_endpoint(endpoint: str, allow_non_loopback: bool = False) -> None:
 def _as_spec(name: str, table: Any, path: Path) -> ServiceSpec:
     if not isinstance(table, dict):
         raise ProfileError(f"{path}: [services.{name}] must be a table")
-    unknown = set(table) - {"module", "enabled", "restart", "max_restarts", "safety", "args", "config"}
+    unknown = set(table) - {"module", "enabled", "restart", "max_restarts", "safety", "args", "config", "nice"}
     if unknown:
         raise ProfileError(f"{path}: [services.{name}] has unknown keys {sorted(unknown)}")
     restart = table.get("restart", "never")
@@ -353,6 +359,13 @@ def _as_spec(name: str, table: Any, path: Path) -> ServiceSpec:
         raise ProfileError(f"{path}: services.{name}.config must be a table")
     if not isinstance(max_restarts, int) or max_restarts < 0:
         raise ProfileError(f"{path}: services.{name}.max_restarts must be a non-negative integer")
+    nice = table.get("nice", 0)
+    if isinstance(nice, bool) or not isinstance(nice, int) or not NICE_RANGE[0] <= nice <= NICE_RANGE[1]:
+        raise ProfileError(f"{path}: services.{name}.nice must be an integer from {NICE_RANGE[0]} "
+                           f"(normal) to {NICE_RANGE[1]} (lowest CPU priority), got {nice!r}")
+    if nice != 0 and bool(table.get("safety", False)):
+        raise ProfileError(f"{path}: services.{name}.nice = {nice}, but {name} is a safety service: "
+                           "it must keep nice = 0 so that heavy services cannot starve it")
     return ServiceSpec(
         name=name,
         module=str(table.get("module", f"services.{name}")),
@@ -362,6 +375,7 @@ def _as_spec(name: str, table: Any, path: Path) -> ServiceSpec:
         safety=bool(table.get("safety", False)),
         args=tuple(args),
         config=config,
+        nice=nice,
     )
 
 

@@ -2,14 +2,16 @@
 
 Runs `handover-up` (one taking episode) as a subprocess, reads the children's PIDs from its
 `started <name> (pid N)` lines, samples each child's resident set size with psutil every
-0.2 s until the run ends, and reports each service's peak. Baseline in the same run: the RSS
-of a bare Python process that imported the service runtime (what every service pays before
-its own work).
+0.2 s until the run ends, and reports each service's peak and its RSS at the end of the
+episode (the last sample before the launcher's ``summary:`` line, i.e. after a whole pick,
+reach, release and retract). Baseline in the same run: the RSS of a bare Python process that
+imported the service runtime (what every service pays before its own work).
 Run: python -m pytest tests/bench/test_bench_memory.py -m bench -s
 """
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -19,6 +21,7 @@ import time
 import psutil
 import pytest
 
+from services.runtime.profile import load_profile_file
 from tests.bench._report import save, table
 
 pytestmark = pytest.mark.bench
@@ -38,11 +41,13 @@ def _baseline_mb() -> float:
 
 def test_peak_rss_of_every_service_during_a_handover(tmp_path):
     baseline = _baseline_mb()
+    load_before = os.getloadavg()
     proc = subprocess.Popen([sys.executable, "-m", "services.launcher", "--port", "auto", "--receiver", "taking",
                              "--recording-dir", str(tmp_path), "--run-id", "mem"],
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     pids: dict[str, int] = {}
     lines: list[str] = []
+    episode_over = threading.Event()
 
     def read() -> None:
         assert proc.stdout is not None
@@ -51,10 +56,13 @@ def test_peak_rss_of_every_service_during_a_handover(tmp_path):
             m = _STARTED.match(line)
             if m:
                 pids[m["name"]] = int(m["pid"])
+            if line.startswith("[launcher] summary:") or line.startswith("[launcher] stopped "):
+                episode_over.set()
 
     reader = threading.Thread(target=read, daemon=True)
     reader.start()
     peak: dict[str, float] = {}
+    end_of_episode: dict[str, float] = {}
     try:
         deadline = time.monotonic() + 180.0
         while proc.poll() is None and time.monotonic() < deadline:
@@ -64,6 +72,8 @@ def test_peak_rss_of_every_service_during_a_handover(tmp_path):
                 except psutil.Error:
                     continue
                 peak[name] = max(peak.get(name, 0.0), rss)
+                if not episode_over.is_set():
+                    end_of_episode[name] = rss
             time.sleep(0.2)
     finally:
         if proc.poll() is None:
@@ -71,9 +81,15 @@ def test_peak_rss_of_every_service_during_a_handover(tmp_path):
         proc.wait()
         reader.join(5.0)
     assert proc.returncode == 0, "".join(lines[-30:])
-    rows = [(name, f"{mb:.0f}", "yes" if mb <= TARGET_MB else "NO") for name, mb in sorted(peak.items())]
-    rows.append(("baseline: python + services.runtime", f"{baseline:.0f}", ""))
-    print(f"\npeak RSS during one simulated handover, MB (target ≤ {TARGET_MB:.0f} MB each)")
-    print(table(rows, ("service", "peak RSS MB", "≤ target")))
-    save("memory", {"peak_rss_mb": peak, "baseline_mb": baseline, "target_mb": TARGET_MB})
-    assert len(peak) == 7, f"sampled {sorted(peak)}"
+    expected = {s.name for s in load_profile_file("sim").services if s.enabled}
+    rows = [(name, f"{end_of_episode.get(name, float('nan')):.0f}", f"{mb:.0f}",
+             "yes" if mb <= TARGET_MB else "NO") for name, mb in sorted(peak.items())]
+    rows.append(("baseline: python + services.runtime", f"{baseline:.0f}", "", ""))
+    print(f"\nRSS of every service during one simulated handover, MB (target ≤ {TARGET_MB:.0f} MB each); "
+          f"load average {load_before[0]:.1f} at the start")
+    print(table(rows, ("service", "end of episode MB", "peak MB", "peak ≤ target")))
+    save("memory", {"peak_rss_mb": peak, "end_of_episode_rss_mb": end_of_episode, "baseline_mb": baseline,
+                    "target_mb": TARGET_MB, "load_average_before": load_before,
+                    "over_target": sorted(n for n, mb in peak.items() if mb > TARGET_MB)})
+    assert set(peak) == expected, f"sampled {sorted(peak)}, profile has {sorted(expected)}"
+    assert all(mb > baseline for mb in peak.values())  # every service holds at least the runtime

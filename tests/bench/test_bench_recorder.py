@@ -12,12 +12,23 @@ at 10 Hz, depth 320×240 at 30 Hz), ≈ 1 000 messages/s; a second mix with the 
 - queue depth: a producer thread queues the messages at their real rate for a few seconds
   (like the Zenoh callback), the recorder's own loop (`node.consume`) drains it; the queue's
   depth is sampled at every message handled.
+
+Memory (DESIGN §9: ≤ 300 MB RSS), `test_recorder_rss_*`: a subprocess builds the recorder's
+writer (Baxter's URDF included), feeds it `RSS_DATA_S` seconds of the full-rate workload (as
+fast as it can, a batch every 0.1 s of data) and closes the file, while a thread samples its
+RSS every 5 ms. Two variants in the same run:
+- product: the recorder as it is (footer-less file, mimalloc returns freed pages);
+- baseline: the previous settings (Rerun's footer written, mimalloc defaults).
 Run: python -m pytest tests/bench/test_bench_recorder.py -m bench -s
 """
 
 from __future__ import annotations
 
+import json
+import os
 import queue
+import subprocess
+import sys
 import threading
 import time
 
@@ -166,3 +177,85 @@ def test_recorder_throughput_and_queue_depth(tmp_path):
     save("recorder", results)
     full = results["full rates (optical 100 Hz)"]
     assert full["batched"]["sustained_msgs_per_s"] > full["offered_msgs_per_s"]
+
+
+RSS_DATA_S = 30
+TARGET_RSS_MB = 300.0
+
+#: Runs in a fresh interpreter: argv = output .rrd, seconds of data, "product" | "baseline".
+_RSS_SCRIPT = r"""
+import json, sys, threading, time
+import psutil
+out, seconds, variant = sys.argv[1], int(sys.argv[2]), sys.argv[3]
+proc = psutil.Process()
+peak = [0]
+def sample():
+    while True:
+        peak[0] = max(peak[0], proc.memory_info().rss)
+        time.sleep(0.005)
+threading.Thread(target=sample, daemon=True).start()
+if variant == "baseline":
+    import rerun as rr  # before the writer: its allocator settings come too late to apply
+    save = rr.RecordingStream.save
+    rr.RecordingStream.save = lambda self, path, **kw: save(self, path)  # footer written (the default)
+from pathlib import Path
+from services.recorder.writer import RecordingWriter
+from tests.bench.test_bench_recorder import PREFIX, workload
+mb = lambda b: b / 1e6
+writer = RecordingWriter(Path(out), PREFIX)
+after_init = proc.memory_info().rss
+peak[0] = 0
+feed_s = 0.0
+for _ in range(seconds):
+    messages = workload(1.0, 100.0)
+    t_feed = time.perf_counter()
+    for i, (_, key, payload) in enumerate(messages):
+        writer.handle(key, payload, time.time_ns())
+        if i % max(1, len(messages) // 10) == 0:
+            writer.pump(force=True)
+    feed_s += time.perf_counter() - t_feed
+before_close = proc.memory_info().rss
+feed_peak = peak[0]
+peak[0] = 0
+t0 = time.perf_counter()
+writer.close()
+close_s = time.perf_counter() - t0
+time.sleep(0.05)
+close_peak = max(peak[0], proc.memory_info().rss)
+print(json.dumps({"after_init_mb": mb(after_init), "feed_peak_mb": mb(feed_peak), "before_close_mb": mb(before_close),
+                  "close_peak_mb": mb(close_peak), "peak_mb": mb(max(feed_peak, close_peak, after_init)),
+                  "close_s": close_s, "messages": sum(writer.stats.logged.values()),
+                  "msgs_per_s": sum(writer.stats.logged.values()) / feed_s}))
+"""
+
+
+def _rss_run(variant: str, path) -> dict:
+    env = {k: v for k, v in os.environ.items() if k not in ("MIMALLOC_PURGE_DELAY", "RUST_LOG")}
+    done = subprocess.run([sys.executable, "-c", _RSS_SCRIPT, str(path), str(RSS_DATA_S), variant],
+                          capture_output=True, text=True, env=env, timeout=600, check=False)
+    assert done.returncode == 0, done.stderr[-3000:]
+    result = json.loads(done.stdout.strip().splitlines()[-1])
+    result["file_mb"] = path.stat().st_size / 1e6
+    return result
+
+
+def test_recorder_rss_product_vs_previous_settings(tmp_path):
+    from services.recorder.readback import entity_row_counts
+
+    results = {variant: _rss_run(variant, tmp_path / f"{variant}.rrd") for variant in ("product", "baseline")}
+    rows = [(variant, f"{r['after_init_mb']:.0f}", f"{r['before_close_mb']:.0f}", f"{r['feed_peak_mb']:.0f}",
+             f"{r['close_peak_mb']:.0f}", f"{r['peak_mb']:.0f}", f"{r['close_s']:.2f}", f"{r['file_mb']:.0f}",
+             f"{r['msgs_per_s']:.0f}")
+            for variant, r in results.items()]
+    print(f"\nrecorder RSS, MB: URDF + {RSS_DATA_S} s of data at the stack's full rates (target ≤ {TARGET_RSS_MB:.0f})")
+    print(table(rows, ("variant", "after start", "before close", "peak while writing", "peak at close", "peak",
+                       "close s", "file MB", "written msg/s")))
+    product, baseline = results["product"], results["baseline"]
+    results["ratio_peak_product_over_baseline"] = product["peak_mb"] / baseline["peak_mb"]
+    print(f"peak RSS: product {product['peak_mb']:.0f} MB = {results['ratio_peak_product_over_baseline']:.2f}x "
+          f"the previous settings ({baseline['peak_mb']:.0f} MB)")
+    save("recorder_rss", results)
+    # Same data in both files: every message written (the footer only indexes it).
+    assert product["messages"] == baseline["messages"] > RSS_DATA_S * 900
+    counts = entity_row_counts(tmp_path / "product.rrd", include_static=False)
+    assert counts == entity_row_counts(tmp_path / "baseline.rrd", include_static=False)

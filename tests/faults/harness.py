@@ -85,7 +85,9 @@ def _owned(pid: int, service: str) -> psutil.Process | None:
     """The process `pid` if it is still the `service` child we started (PID reuse guard)."""
     try:
         p = psutil.Process(pid)
-        return p if f"services.{service}" in " ".join(p.cmdline()) else None
+        cmd = " ".join(p.cmdline())
+        # The service's module: services.<name>, except the simulated Kinect (services.sim_kinect).
+        return p if f"services.{service}" in cmd or f"services.sim_{service}" in cmd else None
     except (psutil.NoSuchProcess, psutil.AccessDenied):
         return None
 

@@ -32,7 +32,7 @@ from tests.faults.harness import run_with_faults
 from tests.faults.invariants import FaultPlan, judge
 
 OUT = Path(__file__).resolve().parents[2] / "out" / "faults"
-SERVICES = ("bridge", "motion", "gripper", "supervisor", "planner", "tracker", "recorder")
+SERVICES = ("bridge", "motion", "gripper", "supervisor", "planner", "tracker", "kinect", "recorder")
 PHASES = ("locate", "pick", "plan", "reach", "transfer", "released")
 FAULTS = ("kill", "freeze", "delay", "drop", "flood")
 SERVICE_TOPIC = {
@@ -42,6 +42,7 @@ SERVICE_TOPIC = {
     "supervisor": "motion/goal",
     "planner": "planner/transfer",
     "tracker": "perception/human",
+    "kinect": "perception/skeleton",
     "recorder": "runtime/heartbeat",
 }
 DELAY_S, DROP_P, FLOOD_S, FLOOD_HZ, FREEZE_S = 0.3, 0.5, 2.0, 1000.0, 1.0

@@ -31,7 +31,7 @@ from tests.faults.invariants import FaultPlan, judge
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(180)]
 
 OUT = Path(__file__).resolve().parents[2] / "out" / "faults" / "ci"
-CRITICAL = ("bridge", "motion", "gripper", "planner", "tracker", "supervisor")
+CRITICAL = ("bridge", "motion", "gripper", "planner", "tracker", "kinect", "supervisor")
 SAFETY_TOPICS = (  # (publisher, topic)
     ("gripper", "gripper/release"),
     ("supervisor", "motion/stop"),

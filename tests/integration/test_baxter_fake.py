@@ -31,8 +31,6 @@ module = "services.bridge.baxter"
 [services.bridge.config]
 backend = "baxter"
 command_timeout_s = 0.2
-[services.bridge.config.kinect]
-enabled = false
 [services.bridge.config.baxter]
 startup_timeout_s = 8.0
 gripper_min_interval_s = 0.0

@@ -101,6 +101,7 @@ def test_full_handover_through_the_baxter_backend_and_the_fake_robot(tmp_path):
         truth = node.subscribe(topics.SIM_TRUTH, queue_size=100_000)
         states = node.subscribe(topics.JOINT_STATE, queue_size=100_000)
         skeletons = node.subscribe(topics.SKELETON, queue_size=10_000)
+        kinect_truth = node.subscribe(topics.KINECT_TRUTH, queue_size=10_000)
         tap = _RosTap(node.session)
         try:
             out, _ = proc.communicate(timeout=RUN_TIMEOUT_S)
@@ -111,6 +112,7 @@ def test_full_handover_through_the_baxter_backend_and_the_fake_robot(tmp_path):
         truths = [rx.msg for rx in truth.drain()]
         joint_states = [rx.msg for rx in states.drain()]
         skeleton_sources = {rx.msg.source for rx in skeletons.drain()}
+        kinect_truths = [rx.msg for rx in kinect_truth.drain()]
     finally:
         if tap is not None:
             tap.close()
@@ -162,5 +164,5 @@ def test_full_handover_through_the_baxter_backend_and_the_fake_robot(tmp_path):
     assert np.linalg.norm(end - start) > 0.2, "the object never left the table"
     assert np.linalg.norm(end - hand) < IN_HAND_M, f"object {end} is {np.linalg.norm(end - hand):.3f} m from the hand"
     # The receiver's hand in the scene and the body the Kinect rendered are the same hand.
-    assert last.kinect_hand_truth_m is not None
-    assert np.linalg.norm(np.array(last.kinect_hand_truth_m) - hand) < 0.05
+    assert kinect_truths and {m.source for m in kinect_truths} == {"fake_baxter"}
+    assert np.linalg.norm(np.array(kinect_truths[-1].hand_position_m) - hand) < 0.05

@@ -6,7 +6,9 @@ import re
 import signal
 import subprocess
 import sys
+import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import psutil
@@ -164,3 +166,51 @@ def test_bad_arguments_exit_2_with_one_line():
     assert res.returncode == 2
     lines = [line for line in (res.stdout + res.stderr).splitlines() if line.strip()]
     assert len(lines) == 1 and "profile 'nope' not found" in lines[0]
+
+
+def _thread_niceness(pid: int) -> dict[int, int]:
+    """Niceness of every thread of `pid` (Linux niceness is per thread), from /proc."""
+    out = {}
+    for task in Path(f"/proc/{pid}/task").iterdir():
+        try:
+            stat = (task / "stat").read_text()
+        except OSError:
+            continue  # the thread ended meanwhile
+        fields = stat[stat.rindex(")") + 2:].split()
+        out[int(task.name)] = int(fields[16])  # field 19 of proc(5) stat: nice
+    return out
+
+
+def test_every_service_runs_at_its_profile_niceness(tmp_path):
+    """The launcher starts each child (and so every thread it makes) at the profile's `nice`."""
+    from services.runtime.profile import load_profile_file
+
+    expected = {s.name: s.nice for s in load_profile_file("sim").services if s.enabled}
+    assert expected["recorder"] == 10 and expected["bridge"] == 0  # the profile under test
+    proc, _profile = _launch(tmp_path, "--job", "none")
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True)
+    reader.start()
+    try:
+        assert wait_until(lambda: any(re.search(r"all \d+ services alive", x) for x in lines), 60), "".join(lines)
+        started = {m["name"]: int(m["pid"]) for m in (re.match(r"\[launcher\] started (?P<name>\w+) \(pid "
+                                                               r"(?P<pid>\d+)\)", x) for x in list(lines)) if m}
+        assert set(started) == set(expected)
+        base = psutil.Process().nice()
+        for name, pid in started.items():
+            want = max(expected[name], base)
+            assert psutil.Process(pid).nice() == want, name
+            threads = _thread_niceness(pid)
+            assert len(threads) > 1 and set(threads.values()) == {want}, (name, threads)
+            marker = f"started {name} (pid {pid})" + (f" at nice {want}:" if want else ":")
+            assert any(marker in x for x in lines), marker
+        proc.send_signal(signal.SIGINT)
+        proc.wait(30)
+    finally:
+        if proc.poll() is None:
+            for child in _children(proc):
+                child.kill()
+            proc.kill()
+            proc.wait(10)
+        reader.join(5)
+    assert proc.returncode == 130, "".join(lines)

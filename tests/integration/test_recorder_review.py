@@ -10,7 +10,10 @@ import numpy as np
 import pytest
 
 from bus_schema import messages as m, topics
-from services.recorder.readback import entity_row_counts, read_component, read_scalars, read_text_log
+from services.recorder.blueprint import BASE_FRAME
+from services.recorder.core import SKELETON_BONES
+from services.recorder.readback import (entity_row_counts, read_component, read_scalars, read_static_component,
+                                        read_text_log)
 from services.runtime.testing import ServiceProcess, wait_alive
 
 pytestmark = pytest.mark.integration
@@ -20,6 +23,8 @@ OBJECT = (0.62, -0.21, 0.08)
 TARGET = (0.61, -0.26, 0.12)
 GOAL = (0.8, -0.2, 0.16)
 HAND, HAND_RAW = (0.85, -0.25, 0.1), (0.88, -0.25, 0.1)
+#: Skeleton joints (`base` frame, m): a different position per joint, so order and values count.
+SKELETON = {n: (1.0 + 0.01 * i, -0.4 - 0.02 * i, 0.9 - 0.1 * i) for i, n in enumerate(m.SKELETON_JOINTS)}
 
 
 def _publish_handover(node):
@@ -34,8 +39,7 @@ def _publish_handover(node):
     time.sleep(0.05)
     pub[topics.MOTION_GOAL].put(goal_id="reach-1", kind="transfer", position_base_m=GOAL)
     pub[topics.SUPERVISOR_STATE].put(phase="reach", episode_id=1)
-    pub[topics.SKELETON].put(tracked=True, joints=[m.SkeletonJoint(name=n, position_m=(1.0, -0.4, 0.1 * i))
-                                                   for i, n in enumerate(m.SKELETON_JOINTS)])
+    pub[topics.SKELETON].put(tracked=True, joints=[m.SkeletonJoint(name=n, position_m=p) for n, p in SKELETON.items()])
     pub[topics.HUMAN].put(tracked=True, hand_position_m=HAND, hand_raw_position_m=HAND_RAW, correction="lag")
     forces = []
     for i, tool in enumerate(TOOL_PATH[1:], start=1):
@@ -87,9 +91,15 @@ def test_review_entities_hold_what_was_published(bus, make_node, tmp_path):
                                atol=1e-6)
     arrow = read_component(out, "world/motion/goal_arrow", "Arrows3D:vectors")[0][1][0]
     np.testing.assert_allclose(arrow, np.subtract(GOAL, TOOL_PATH[0]), atol=1e-6)
-    # Human: 15 raw joints, 15 bones, corrected hand and the correction arrow raw → corrected.
-    assert len(read_component(out, "world/skeleton/raw", "Points3D:positions")[0][1]) == 15
-    assert len(read_component(out, "world/skeleton/bones", "LineStrips3D:strips")[0][1]) == 15
+    # Human: the 15 raw joints at the published positions, in the `base` frame (the 3-D view's
+    # target frame), and the 15 bones between the published joints.
+    joints = read_component(out, "world/skeleton/raw", "Points3D:positions")
+    assert len(joints) == 1
+    np.testing.assert_allclose(joints[0][1], list(SKELETON.values()), atol=1e-6)
+    bones = read_component(out, "world/skeleton/bones", "LineStrips3D:strips")[0][1]
+    np.testing.assert_allclose(bones, [[SKELETON[a], SKELETON[b]] for a, b in SKELETON_BONES], atol=1e-6)
+    for entity in ("world/skeleton/raw", "world/skeleton/bones", "world/human/hand_corrected", "world/truth/object"):
+        assert read_static_component(out, entity, "CoordinateFrame:frame") == [[BASE_FRAME]], entity
     np.testing.assert_allclose(read_component(out, "world/human/hand_corrected", "Points3D:positions")[0][1][0],
                                HAND, atol=1e-6)
     np.testing.assert_allclose(read_component(out, "world/human/hand_correction", "Arrows3D:vectors")[0][1][0],
@@ -123,10 +133,10 @@ def test_review_entities_hold_what_was_published(bus, make_node, tmp_path):
 
 
 def _timelines(path, entity):
-    import rerun.chunk as rrc
+    from services.recorder.readback import _reader
 
     names = set()
-    for chunk in rrc.RrdReader(str(path)).stream():
+    for chunk in _reader(path).stream():
         if chunk.entity_path == entity and not chunk.is_static:
             names |= set(chunk.timeline_names)
     return names

@@ -30,7 +30,7 @@ def test_every_message_has_the_common_header(topic):
 
 def test_keys_are_under_the_versioned_prefix_and_unique():
     keys = [t.key() for t in TOPICS]
-    assert len(set(keys)) == len(keys) == 19
+    assert len(set(keys)) == len(keys) == 20
     assert all(k.startswith(f"handover/v{bus_schema.SCHEMA_VERSION}/") for k in keys)
     assert topics.topic_for_key("handover/v1/robot/joint_state") is topics.JOINT_STATE
     assert topics.topic_for_key("handover/v2/robot/joint_state") is None
@@ -43,8 +43,9 @@ def test_design_keys_all_present():
               "perception/skeleton", "perception/depth", "perception/human", "perception/object",
               "planner/transfer", "motion/goal", "motion/status", "motion/stop", "gripper/command",
               "gripper/state", "gripper/release", "supervisor/state", "sim/truth"}
-    # Beyond DESIGN §4: the supervisor's episode summary and every service's heartbeat.
-    assert {t.suffix for t in TOPICS} == wanted | {"supervisor/episode", "runtime/heartbeat"}
+    # Beyond DESIGN §4: the supervisor's episode summary, every service's heartbeat and the
+    # simulated Kinect's ground truth.
+    assert {t.suffix for t in TOPICS} == wanted | {"supervisor/episode", "runtime/heartbeat", "sim/kinect_truth"}
 
 
 def test_safety_keys_are_the_safety_relevant_ones():

@@ -26,9 +26,10 @@ The full handover (``contact.scenario = "handover"``): the physics is the sim's
 `HandoverSimBackend` (object on the table, pick, the receiver's reach, the contact
 transfer). The receiver is not part of Baxter: on real hardware a Kinect driver publishes
 ``perception/skeleton`` and ``perception/depth``. Here the fake plays that role too: with
-``kinect.enabled`` it runs the simulated Kinect (`KinectThread`, 30 Hz) on the scene's own
-receiver hand and object, so the skeleton the tracker sees and the hand that takes the
-object are the same hand, and adds the Kinect's ground truth to ``sim/truth``. It follows
+``kinect.enabled`` it runs the simulated Kinect (`services.sim_kinect.thread.KinectThread`,
+30 Hz, on a thread of this process) on the scene's own receiver hand and object, so the
+skeleton the tracker sees and the hand that takes the object are the same hand, and
+publishes the Kinect's ground truth on ``sim/kinect_truth``. It follows
 ``supervisor/state``: a new ``episode_id`` puts the object back on the table and the
 receiver's hand at rest (the lab assistant resetting the scene). The Baxter backend itself
 knows nothing of this.
@@ -72,8 +73,9 @@ from services.bridge.baxter.messages import (
     WrenchStamped,
 )
 from services.bridge.baxter.ros1 import Ros1DecodeError, Ros1Message, Time
-from services.bridge.config import ContactConfig, KinectConfig
+from services.bridge.config import ContactConfig
 from services.runtime import Profile, RateLimitedLog, ServiceNode, base_parser, kv, load_profile, run_main
+from services.sim_kinect.config import KinectConfig
 
 log = logging.getLogger(__name__)
 
@@ -99,10 +101,11 @@ class FakeBaxterConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
         command_timeout_s: the limb's command time-out until told otherwise, s.
         gripper_force_full_scale_n: grip force at 100 % force setting, N (as the backend).
         object_mass_kg: static weight felt when the gripper is closed without contact plant.
-        contact: the contact plant / handover scene (as ``[services.bridge.config.contact]``).
+        contact: the contact plant / handover scene (as ``[services.bridge.config.contact]``;
+            its ``height_m`` and ``posture`` are replaced by the Kinect's: one receiver).
         kinect: the simulated Kinect standing in for the Kinect driver (as
-            ``[services.bridge.config.kinect]``; its height and posture are also the scene
-            receiver's body).
+            ``[services.kinect.config]``; off by default; its height and posture are also the
+            scene receiver's body).
         publish_truth: publish ``sim/truth`` on the bus.
     """
 
@@ -114,14 +117,15 @@ class FakeBaxterConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
     gripper_force_full_scale_n: Annotated[float, Meta(gt=0.0, le=1000.0)] = 140.0
     object_mass_kg: Annotated[float, Meta(ge=0.0, le=5.0)] = 0.2
     contact: ContactConfig = ContactConfig()
-    kinect: KinectConfig = KinectConfig()
+    kinect: KinectConfig = KinectConfig(enabled=False)
     publish_truth: bool = True
 
 
 def make_physics(config: FakeBaxterConfig) -> Backend:
     """The sim backend the fake moves with (arm servo; contact plant or handover scene)."""
-    return make_backend("sim", contact=config.contact, kinect=config.kinect,
-                        time_constant_s=config.servo_time_constant_s)
+    contact = msgspec.structs.replace(config.contact, height_m=config.kinect.height_m,
+                                      posture=config.kinect.posture)
+    return make_backend("sim", contact=contact, time_constant_s=config.servo_time_constant_s)
 
 
 class FakeBaxter:
@@ -175,11 +179,9 @@ class FakeBaxter:
         self._supervisor = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16) if self._new_episode else None
         self.kinect = None
         if config.kinect.enabled:
-            from services.bridge.kinect_thread import KinectThread
+            from services.sim_kinect.thread import KinectThread
 
             self.kinect = KinectThread(config.kinect, node)
-            if not (config.contact.enabled and config.publish_truth):  # nobody else publishes sim/truth
-                self.kinect.publish_own_truth(node)
             self._update_kinect()
             self.kinect.start()
 
@@ -317,8 +319,6 @@ class FakeBaxter:
                 surface_quality=100 if motion["surface_valid"] else 0))
         truth = captured.get("sim/truth")
         if truth is not None and self._truth_pub is not None:
-            if self.kinect is not None:
-                truth = {**truth, **self.kinect.truth_fields()}
             self._truth_pub.put(**truth)
 
     def _put(self, name: str, msg: Ros1Message) -> None:

@@ -1,6 +1,7 @@
 """The fake Baxter with the handover scene, in process on a loopback bus: it plays the Kinect
-driver (skeleton and depth of the scene's own receiver), publishes sim truth with the
-Kinect's ground truth merged in, and resets the scene on a new supervisor episode only."""
+driver (skeleton and depth of the scene's own receiver, and the Kinect's ground truth on
+`sim/kinect_truth`), publishes sim truth, and resets the scene on a new supervisor episode
+only."""
 
 from __future__ import annotations
 
@@ -43,6 +44,7 @@ def test_the_fake_plays_the_kinect_on_the_scenes_receiver(fake, make_node):
     skeletons = observer.subscribe(topics.SKELETON, queue_size=1000)
     depths = observer.subscribe(topics.DEPTH, queue_size=1000)
     truth = observer.subscribe(topics.SIM_TRUTH, queue_size=10_000)
+    kinect_truth = observer.subscribe(topics.KINECT_TRUTH, queue_size=1000)
     assert isinstance(fake.physics, HandoverSimBackend)
     time.sleep(0.3)  # subscribers known to the router
     _run(fake, 50)  # one sim/truth per tick
@@ -55,8 +57,9 @@ def test_the_fake_plays_the_kinect_on_the_scenes_receiver(fake, make_node):
     np.testing.assert_allclose(last.object_position_m, OBJECT_START_M, atol=1e-9)
     # The Kinect's body is the scene's receiver: its true right hand is the scene's hand.
     hand_m, _ = fake.physics.scene_snapshot()
-    assert last.kinect_hand_truth_m is not None and last.kinect_torso_truth_m is not None
-    np.testing.assert_allclose(last.kinect_hand_truth_m, hand_m, atol=0.02)
+    assert wait_until(lambda: kinect_truth.latest() is not None, 5.0)
+    assert kinect_truth.latest().msg.source == SERVICE_NAME
+    np.testing.assert_allclose(kinect_truth.latest().msg.hand_position_m, hand_m, atol=0.02)
     np.testing.assert_allclose(last.receiver_hand_position_m, hand_m, atol=1e-9)
 
 

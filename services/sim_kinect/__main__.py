@@ -1,0 +1,3 @@
+from services.sim_kinect.cli import main
+
+raise SystemExit(main())

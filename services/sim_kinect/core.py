@@ -1,0 +1,109 @@
+"""Pure logic of the simulated Kinect: what to render from the latest bus inputs, and the
+bus fields of a rendered frame. No I/O: `services.sim_kinect.node` does the bus wiring.
+
+Inputs (all optional and possibly stale; the renderer uses the latest of each):
+
+- the arm posture, from `robot/joint_state` (names → Baxter's right-arm order, rad);
+- in the ``handover`` scene, the receiver's right hand and the object centre, from
+  `sim/truth` (m, `base` frame).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from robot_sim.baxter import RIGHT_ARM_JOINTS
+from services.sim_kinect.config import KinectConfig
+
+#: Bound of the `Vec3M` bus fields, m.
+POSITION_BOUND_M = 100.0
+
+
+def make_kinect_sim(config: KinectConfig) -> Any:
+    """The seeded `robot_sim.kinect.KinectSim` for `config` (loads Baxter's model: ~1 s)."""
+    from robot_sim.kinect import KinectScenario, KinectSim
+
+    target = tuple(config.hand_target_base_m) if config.hand_target_base_m else None
+    scenario = KinectScenario(height_m=config.height_m, posture=config.posture,
+                              hand_target_base_m=target, reach_start_s=config.reach_start_s,
+                              reach_duration_s=config.reach_duration_s)
+    return KinectSim(config.seed, scenario)
+
+
+def arm_posture_rad(names: Sequence[str], position_rad: Sequence[float]) -> np.ndarray | None:
+    """Baxter's right-arm joints (7,), rad, in `RIGHT_ARM_JOINTS` order, from a joint state
+    with any joint order; None when a right-arm joint is missing, a value is not finite or
+    names and values differ in number."""
+    if len(names) != len(position_rad):
+        return None
+    by_name = dict(zip(names, position_rad, strict=True))
+    try:
+        q = np.array([float(by_name[n]) for n in RIGHT_ARM_JOINTS])
+    except KeyError:
+        return None
+    return q if np.all(np.isfinite(q)) else None
+
+
+@dataclass(frozen=True)
+class SceneInput:
+    """What another model says about the receiver's hand and the object (m, `base`); None
+    fields: the Kinect's own model decides (scripted reach, object on the table)."""
+
+    right_hand_m: np.ndarray | None = None
+    object_position_m: np.ndarray | None = None
+
+
+def scene_input(scene: str, receiver_hand_position_m: Sequence[float] | None,
+                object_position_m: Sequence[float] | None) -> SceneInput:
+    """The scene input of one frame.
+
+    Args:
+        scene: ``handover`` (follow `sim/truth`) or ``none`` (ignore it).
+        receiver_hand_position_m, object_position_m: the latest `sim/truth` fields (m,
+            `base`), None before the first `sim/truth`.
+    """
+    if scene != "handover" or receiver_hand_position_m is None or object_position_m is None:
+        return SceneInput()
+    hand = np.asarray(receiver_hand_position_m, float)
+    obj = np.asarray(object_position_m, float)
+    if hand.shape != (3,) or obj.shape != (3,) or not (np.all(np.isfinite(hand)) and np.all(np.isfinite(obj))):
+        return SceneInput()
+    return SceneInput(hand.copy(), obj.copy())
+
+
+def _vec(v: np.ndarray) -> tuple[float, float, float]:
+    c = np.clip(np.nan_to_num(np.asarray(v, float)), -POSITION_BOUND_M, POSITION_BOUND_M)
+    return (float(c[0]), float(c[1]), float(c[2]))
+
+
+def truth_fields(frame: Any) -> dict[str, tuple[float, float, float]]:
+    """`bus_schema.messages.KinectTruth` fields of a `robot_sim.kinect.KinectFrame`: the true
+    right hand and torso of the body it rendered (m, `base`)."""
+    return {"hand_position_m": _vec(frame.truth.right_hand_m),
+            "torso_position_m": _vec(frame.truth.joints_m["torso"])}
+
+
+class FrameClock:
+    """Frame deadlines at `rate_hz` on the monotonic clock; a late frame does not cause a
+    burst of catch-up frames (the next deadline restarts from now)."""
+
+    def __init__(self, rate_hz: float, start_s: float) -> None:
+        if not rate_hz > 0:
+            raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
+        self.period_s = 1.0 / rate_hz
+        self.next_s = start_s
+        self.late_frames = 0
+
+    def advance(self, now_s: float) -> float:
+        """After a frame finished at `now_s` (s): how long to wait for the next one, s."""
+        self.next_s += self.period_s
+        delay = self.next_s - now_s
+        if delay < 0.0:
+            self.late_frames += 1
+            self.next_s = now_s
+            return 0.0
+        return delay
