@@ -45,7 +45,9 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
     last episode ended and the launcher stops it). Returns the exit code."""
     services = watched_services(profile)
     watchdog = Watchdog(services, config.heartbeat_timeout_s, config.stream_timeout_s,
-                        {s: o for s, o in WATCHED_STREAMS.items() if o in services})
+                        {s: o for s, o in WATCHED_STREAMS.items() if o in services},
+                        {name: config.report_heartbeat_timeout_s for name in services
+                         if config.watch.get(name) == "report"})
     sequencer = Sequencer(config, RIGHT_ARM_HOME_RAD)
     liveliness_events: queue.SimpleQueue[tuple[str, bool, float]] = queue.SimpleQueue()
     with ServiceNode(SERVICE_NAME, profile) as node:

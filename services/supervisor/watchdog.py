@@ -58,11 +58,15 @@ class Watchdog:
         heartbeat_timeout_s: heartbeat age that makes a service silent, s.
         stream_timeout_s: age of an owned data stream that makes its service silent, s.
         streams: data stream (topic suffix) → owning service, for the streams to watch.
+        heartbeat_timeouts_s: per-service heartbeat age overriding `heartbeat_timeout_s`
+            (report-only services, e.g. the recorder, which may stall in long writes), s.
     """
 
     def __init__(self, services: list[str], heartbeat_timeout_s: float = 0.25, stream_timeout_s: float = 0.2,
-                 streams: dict[str, str] | None = None) -> None:
+                 streams: dict[str, str] | None = None,
+                 heartbeat_timeouts_s: dict[str, float] | None = None) -> None:
         self.heartbeat_timeout_s = heartbeat_timeout_s
+        self.heartbeat_timeouts_s = dict(heartbeat_timeouts_s or {})
         self.stream_timeout_s = stream_timeout_s
         self.stream_owner = dict(streams or {})
         self._w: dict[str, _Watched] = {name: _Watched() for name in services}
@@ -114,7 +118,8 @@ class Watchdog:
             fault = None
             if not w.alive:
                 fault = Fault(name, "lost", "process gone (liveliness token lost)", now_s, w.lost_at_s or now_s)
-            elif w.last_beat_s is not None and now_s - w.last_beat_s > self.heartbeat_timeout_s:
+            elif (w.last_beat_s is not None
+                  and now_s - w.last_beat_s > self.heartbeat_timeouts_s.get(name, self.heartbeat_timeout_s)):
                 fault = Fault(name, "silent", f"silent: no heartbeat for {now_s - w.last_beat_s:.3f} s",
                               now_s, w.last_beat_s)
             else:

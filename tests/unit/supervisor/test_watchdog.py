@@ -55,3 +55,16 @@ def test_a_restarted_service_is_judged_afresh():
     assert len(w.check(1.01)) == 1
     w.liveliness("recorder", True, 2.0)
     assert w.check(2.01) == [] and w.all_alive() is False  # bridge and gripper never came
+
+
+def test_a_report_only_service_has_its_own_heartbeat_timeout():
+    w = Watchdog(["bridge", "recorder"], heartbeat_timeout_s=0.25, stream_timeout_s=0.15,
+                 heartbeat_timeouts_s={"recorder": 0.75})
+    for s in w.services:
+        w.liveliness(s, True, 0.0)
+        w.heartbeat(s, 10.0)
+    # 0.4 s without a beat: the critical bridge is silent, the recorder (a long write) is not.
+    assert [f.service for f in w.check(10.4)] == ["bridge"]
+    assert w.check(10.74) == []
+    (fault,) = w.check(10.76)
+    assert fault.service == "recorder" and "no heartbeat for 0.760 s" in fault.detail
