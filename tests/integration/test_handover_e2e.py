@@ -52,9 +52,11 @@ def test_taking_receiver_gets_the_object_and_the_arm_stops_at_the_release(standi
     # The release interrupt: a stop with reason "release" follows the release event, the arm
     # is at rest, and nothing moves until the retract goal.
     assert rec.releases, "no release event seen"
-    t_release = rec.releases[0][0]
-    stops = [t for t, m in rec.stops if m.reason == "release" and t >= t_release - 0.01]
-    assert stops, "no release stop"
+    t_release, release = rec.releases[0]
+    # Ordered by the senders' stamps (one host clock): receive times in this process can swap
+    # two messages of different keys when it is starved of CPU.
+    stops = [m for _t, m in rec.stops if m.reason == "release" and m.stamp_ns >= release.stamp_ns]
+    assert stops, f"no release stop: stops {[(m.reason, m.stamp_ns) for _t, m in rec.stops]}, release {release.stamp_ns}"
     rest = first_rest_after(rec.joints, t_release)
     assert rest is not None and rest - t_release < 0.2
     retract = [t for t, g in rec.goals if g.kind == "retract" and t > t_release]
