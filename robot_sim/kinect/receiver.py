@@ -38,6 +38,10 @@ HIP_HALF_WIDTH_RATIO = 0.050
 UPPER_ARM_RATIO = 0.172  # shoulder joint -> elbow joint
 FOREARM_RATIO = 0.180  # elbow joint -> hand joint (palm centre)
 HAND_TIP_RATIO = 0.040  # hand joint -> fingertip
+#: Largest forward lean of the upper body when the hand's target is beyond the straight arm:
+#: the shoulders move this fraction of H toward the target (trunk flexion about the hips;
+#: the planner assumes the same 0.04·H, `services.planner` `lean_fraction_of_height`).
+MAX_LEAN_RATIO = 0.04
 THIGH_RATIO = HIP_HEIGHT_RATIO - KNEE_HEIGHT_RATIO
 SHANK_RATIO = KNEE_HEIGHT_RATIO - FOOT_HEIGHT_RATIO
 
@@ -174,8 +178,29 @@ class ReceiverBody:
 
     def joints(self, right_hand_m: np.ndarray) -> dict[str, np.ndarray]:
         """All 15 joints (m, `base`) with the right hand placed at `right_hand_m` (or as close
-        as the arm reaches); the elbow bends down and outward."""
+        as the arm reaches); the elbow bends down and outward. A target beyond the straight
+        arm makes the upper body lean toward it (horizontally, at most `MAX_LEAN_RATIO`·H at
+        the shoulders, half of that at the torso joint; hips and legs stay)."""
         j = dict(self._static)
+        target = np.asarray(right_hand_m, float)
+        shoulder = j["right_shoulder"]
+        excess = float(np.linalg.norm(target - shoulder)) - 0.995 * self.reach_m
+        toward = (target - shoulder) * np.array([1.0, 1.0, 0.0])
+        norm = float(np.linalg.norm(toward))
+        if excess > 0.0 and norm > 1e-9:
+            # The horizontal shift L of the shoulder along u that brings the target back to the
+            # straight arm R: |d − u L| = R, smaller root; capped at MAX_LEAN_RATIO·H.
+            d = target - shoulder
+            reach = 0.995 * self.reach_m
+            disc = norm * norm - float(d @ d) + reach * reach
+            cap = MAX_LEAN_RATIO * self.size.height_m
+            # disc < 0: no horizontal lean brings it back (e.g. a target below the hanging
+            # hand): the trunk stays and the hand goes as far as the arm reaches.
+            lean = min(norm - float(np.sqrt(disc)), cap) if disc >= 0.0 else 0.0
+            shift = toward / norm * max(lean, 0.0)
+            for name in ("neck", "head", "right_shoulder", "left_shoulder", "left_elbow", "left_hand"):
+                j[name] = j[name] + shift
+            j["torso"] = j["torso"] + 0.5 * shift
         shoulder = j["right_shoulder"]
         pole = np.array([0.3, 1.0, -1.0])
         elbow, hand = _two_link_elbow(

@@ -27,6 +27,7 @@ Example (every key optional; the values shown are the defaults)::
     max_reach_fraction = 1.0
     object_load = "giver"             # eq 2.3; giver | receiver | both | none
     lean_fraction_of_height = 0.04    # human shoulders this far toward the partner
+    max_upper_arm_elevation_deg = 90.0  # upper arm at most horizontal (180: the uncapped model)
     grasp_fraction_of_hand = 0.5
     use_measured_shoulder_height = true
     table_height_m = 0.70
@@ -114,14 +115,20 @@ class ModelConfig(_Cfg, frozen=True, kw_only=True):
     max_reach_fraction: float = 1.0
     object_load: Literal["giver", "receiver", "both", "none"] = "giver"
     lean_fraction_of_height: float = 0.04
+    #: Highest upper-arm elevation from hanging a human actor takes an object with, deg
+    #: (90 = upper arm horizontal; 180 = the thesis's model, capped only by the arm straight
+    #: up). See `djt.UPPER_ARM_MAX_ANGLE_RAD`.
+    max_upper_arm_elevation_deg: float = 90.0
     grasp_fraction_of_hand: float = 0.5
     use_measured_shoulder_height: bool = True
     table_height_m: float = scene.TABLE_HEIGHT_M
 
     def djt_settings(self) -> DJTSettings:
+        lo, _ = DJTSettings().shoulder_angle_range_rad
         return DJTSettings(
             min_height_above_table_m=self.min_height_above_table_m,
             max_reach_fraction=self.max_reach_fraction,
+            shoulder_angle_range_rad=(lo, float(np.deg2rad(self.max_upper_arm_elevation_deg - 90.0))),
             object_load=self.object_load,
             grid_resolution_m=self.grid_resolution_m,
             refine=self.refine,
@@ -194,6 +201,11 @@ def validate(cfg: PlannerConfig) -> PlannerConfig:
         BodyDimensions(d.height_m, d.arm_span_m, d.weight_kg, d.posture, d.seat_height_m)
     except PlannerError as exc:
         raise PlannerError(f"planner config [receiver_default]: {exc}") from None
+    if not (45.0 <= cfg.model.max_upper_arm_elevation_deg <= 180.0):
+        raise PlannerError(
+            "planner config: model.max_upper_arm_elevation_deg must be within 45..180 deg "
+            "(90: upper arm horizontal)"
+        )
     try:
         cfg.model.djt_settings()
         cfg.frame.frame()

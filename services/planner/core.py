@@ -12,6 +12,12 @@ lean and shoulder protraction of a real reach. With a shoulder fixed over the fe
 functional forward reach, and at the thesis's 100 cm separation the two workspaces overlap
 so little that the optimum sits on a reach limit: the "receiver sitting → lower point"
 finding then fails (see the README (Planner)). The robot giver's shoulder stays where Baxter's is.
+
+Upper-arm cap (`ModelConfig.max_upper_arm_elevation_deg`, default 90°: upper arm at most
+horizontal): the joint-torque cost is symmetric about the horizontal, so where a receiver's
+reach limit binds (the live 1.75 m receiver sitting 1 m from the robot), the uncapped
+optimum is the straight arm raised above the shoulder, on a cost valley so flat that tracker
+noise moved it by ±7 cm and above the standing plan (docs/sitting.md).
 """
 
 from __future__ import annotations

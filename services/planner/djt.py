@@ -36,6 +36,16 @@ log = logging.getLogger(__name__)
 
 STANDARD_GRAVITY_M_S2 = 9.80665
 ObjectLoad = Literal["giver", "receiver", "both", "none"]
+#: Highest upper-arm angle above the facing horizontal a human actor holds for a handover,
+#: rad: the upper arm at most horizontal (elevation 90° from hanging). The elbow may still
+#: lift the hand above the shoulder.
+UPPER_ARM_MAX_ANGLE_RAD = 0.0
+#: The thesis's model as written: no cap other than the arm pointing straight up, rad.
+UPPER_ARM_UNCAPPED_ANGLE_RAD = float(np.pi / 2.0)
+#: Joint-angle limits count as met within this, rad (SLSQP lands on a limit to ~1e-12).
+ANGLE_TOLERANCE_RAD = 1e-9
+#: SLSQP is given a shoulder limit when the grid optimum is within this of it, rad (10°).
+SHOULDER_LIMIT_WATCH_MARGIN_RAD = float(np.deg2rad(10.0))
 
 
 @dataclass(frozen=True)
@@ -70,7 +80,12 @@ class DJTSettings:
             arm (1.0: the full workspace, as the thesis assumes).
         elbow_flexion_range_rad: allowed elbow flexion q2 (0 = straight), rad.
         shoulder_angle_range_rad: allowed upper-arm angle q1 above the facing horizontal,
-            rad (−150° = 60° of extension behind the hanging arm, +90° = arm straight up).
+            rad (−150° = 60° of extension behind the hanging arm, 0 = upper arm horizontal,
+            +90° = arm straight up). The default caps the upper arm at horizontal (elevation
+            ≤ 90°): the joint-torque cost is symmetric about the horizontal, so without the
+            cap an arm stretched to its reach limit is "cheaper" raised above the shoulder,
+            a posture ergonomic scores rate worst (RULA: upper arm > 90°; ISO 11226: upper-arm
+            elevation > 60° not acceptable for static holding). See `UPPER_ARM_MAX_ANGLE_RAD`.
         object_load: whose joints carry the object's weight: ``giver`` (eq 2.3, the thesis),
             ``receiver``, ``both`` or ``none`` (for studying the assumption).
         grid_resolution_m: grid step of the search, m.
@@ -81,7 +96,7 @@ class DJTSettings:
     min_height_above_table_m: float = 0.0
     max_reach_fraction: float = 1.0
     elbow_flexion_range_rad: tuple[float, float] = (0.0, np.deg2rad(150.0))
-    shoulder_angle_range_rad: tuple[float, float] = (np.deg2rad(-150.0), np.deg2rad(90.0))
+    shoulder_angle_range_rad: tuple[float, float] = (np.deg2rad(-150.0), UPPER_ARM_MAX_ANGLE_RAD)
     object_load: ObjectLoad = "giver"
     grid_resolution_m: float = 0.01
     refine: bool = True
@@ -245,8 +260,8 @@ def solve_arm(
             & (d >= d_min - 1e-12)
             & (q2 >= q2_lo - 1e-12)
             & (q2 <= q2_hi + 1e-12)
-            & (q1 >= q1_lo)
-            & (q1 <= q1_hi)
+            & (q1 >= q1_lo - ANGLE_TOLERANCE_RAD)
+            & (q1 <= q1_hi + ANGLE_TOLERANCE_RAD)
         )
     tau_s, tau_e = gravity_torques(actor.arm, q1, q2, object_mass_kg, settings.gravity_m_s2)
     return ArmSolution(q1, q2, tau_s, tau_e, feasible)
@@ -304,7 +319,7 @@ def _squared_torques(
     cos_q12 = cos_q1 * c2 - sin_q1 * s2
     q1_lo, q1_hi = settings.shoulder_angle_range_rad
     q1 = np.arctan2(sin_q1, cos_q1)
-    feasible &= (q1 >= q1_lo) & (q1 <= q1_hi)
+    feasible &= (q1 >= q1_lo - ANGLE_TOLERANCE_RAD) & (q1 <= q1_hi + ANGLE_TOLERANCE_RAD)
     g = settings.gravity_m_s2
     distal = a.forearm_hand_mass_kg * a.forearm_hand_com_m + load_kg * l2
     proximal = a.upper_arm_mass_kg * a.upper_arm_com_m + (a.forearm_hand_mass_kg + load_kg) * l1
@@ -456,6 +471,10 @@ class _PointModel:
         giver_load, receiver_load = _loads(object_mass_kg, settings)
         self.table_z = settings.min_height_above_table_m
         self.g = settings.gravity_m_s2
+        self.q1_lo, self.q1_hi = settings.shoulder_angle_range_rad
+        #: Indices (giver low, giver high, receiver low, receiver high) of the shoulder
+        #: limits handed to SLSQP (see `watch_shoulder_limits_near`).
+        self.watched: list[int] = [0, 1, 2, 3]
         self.arms = []
         for actor, load in ((dyad.giver, giver_load), (dyad.receiver, receiver_load)):
             a = actor.arm
@@ -485,23 +504,56 @@ class _PointModel:
             total += t_s * t_s + t_e * t_e
         return total
 
+    def _upper_arm_angles(self, x: float, z: float) -> list[float]:
+        """q1 (rad) of each arm at (x, z) on the natural branch (c2 clipped outside the annulus)."""
+        out = []
+        for sx, sz, facing, l1, l2, *_rest in self.arms:
+            u, w = facing * (x - sx), z - sz
+            c2 = min(1.0, max(-1.0, (u * u + w * w - l1 * l1 - l2 * l2) / (2.0 * l1 * l2)))
+            s2 = math.sqrt(1.0 - c2 * c2)
+            q1 = math.atan2(w, u) - math.atan2(l2 * s2, l1 + l2 * c2)
+            out.append((q1 + math.pi) % (2.0 * math.pi) - math.pi)
+        return out
+
+    def watch_shoulder_limits_near(self, p: np.ndarray, margin_rad: float) -> None:
+        """Give SLSQP only the shoulder limits within `margin_rad` of binding at `p`.
+
+        q1's gradient grows without bound as an arm straightens (at the reach limit), so a
+        far-off shoulder limit would only disturb the line search there.
+        """
+        self.watched = [
+            k for k, slack in enumerate(self._all_shoulder_slacks(float(p[0]), float(p[1])))
+            if slack < margin_rad
+        ]
+
+    def _all_shoulder_slacks(self, x: float, z: float) -> list[float]:
+        return [s for q1 in self._upper_arm_angles(x, z) for s in (q1 - self.q1_lo, self.q1_hi - q1)]
+
+    def _shoulder_range_slacks(self, x: float, z: float) -> list[float]:
+        slacks = self._all_shoulder_slacks(x, z)
+        return [slacks[k] for k in self.watched]
+
     def constraints(self, p: np.ndarray) -> np.ndarray:
-        """[table, giver reach, giver fold, receiver reach, receiver fold] slacks (≥ 0 ok)."""
+        """Slacks (≥ 0 ok): [table, giver reach, giver fold, receiver reach, receiver fold,
+        then the watched shoulder limits]."""
         x, z = float(p[0]), float(p[1])
         out = [z - self.table_z]
         for sx, sz, *_rest, d_min, d_max in self.arms:
             d = math.hypot(x - sx, z - sz)
             out += [d_max - d, d - d_min]
-        return np.array(out)
+        return np.array(out + self._shoulder_range_slacks(x, z))
 
-    def constraints_jacobian(self, p: np.ndarray) -> np.ndarray:
+    def constraints_jacobian(self, p: np.ndarray, h: float = 1e-7) -> np.ndarray:
         x, z = float(p[0]), float(p[1])
         rows = [[0.0, 1.0]]
         for sx, sz, *_rest in self.arms:
             d = max(math.hypot(x - sx, z - sz), 1e-12)
             gx, gz = (x - sx) / d, (z - sz) / d
             rows += [[-gx, -gz], [gx, gz]]
-        return np.array(rows)
+        # Shoulder-range rows by central differences (q1 is smooth inside the annulus).
+        dx = np.subtract(self._shoulder_range_slacks(x + h, z), self._shoulder_range_slacks(x - h, z))
+        dz = np.subtract(self._shoulder_range_slacks(x, z + h), self._shoulder_range_slacks(x, z - h))
+        return np.vstack([np.array(rows), np.stack([dx, dz], axis=1).reshape(-1, 2) / (2.0 * h)])
 
 
 def _refine(
@@ -509,10 +561,11 @@ def _refine(
 ) -> tuple[np.ndarray, float, bool]:
     """SLSQP from the grid point; keeps the grid point unless the result is feasible and better.
 
-    Shoulder-range limits are not given to SLSQP (they never bind near a handover optimum);
-    a result that violates them is rejected like any infeasible one.
+    The shoulder-range limits are SLSQP constraints too (the upper-arm cap binds for a
+    receiver who sits); a result that violates any limit is rejected like any infeasible one.
     """
     model = _PointModel(dyad, object_mass_kg, settings)
+    model.watch_shoulder_limits_near(start, SHOULDER_LIMIT_WATCH_MARGIN_RAD)
     scale = max(start_cost, 1e-9)
     # Outside an annulus the cost is continued by a large constant for finite differences.
     outside = 10.0 * start_cost / scale

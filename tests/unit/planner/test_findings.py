@@ -7,11 +7,12 @@ happens without it, so that the dependence stays documented and visible.
 
 from dataclasses import replace
 
+import numpy as np
 import pytest
 
 from services.planner.anthropometrics import FIGURE3_ACTOR, ROBOT_AS_HUMAN, BodyDimensions
 from services.planner.core import DyadGeometry, plan_transfer
-from services.planner.djt import DJTSettings
+from services.planner.djt import UPPER_ARM_UNCAPPED_ANGLE_RAD, DJTSettings
 from services.planner.experiment import EMPTY_CUP_KG, FULL_CUP_KG
 
 A = FIGURE3_ACTOR
@@ -76,12 +77,25 @@ def test_swapping_identical_actors_mirrors_the_point_with_the_load_on_the_other_
     assert receiver_carries.position_task_m[1] == pytest.approx(giver_carries.position_task_m[1], abs=1e-3)
 
 
-def test_without_lean_the_receiver_sitting_finding_fails_on_a_reach_limit():
-    """The deciding assumption: fixed shoulders 1 m apart leave a narrow overlap, the optimum
-    moves onto the sitting receiver's reach limit with the arm raised above its shoulder."""
+def test_without_lean_the_uncapped_model_fails_the_sitting_finding_on_a_reach_limit():
+    """The thesis's model as written (upper arm may rise to vertical), shoulders fixed 1 m
+    apart: the overlap is narrow, the optimum moves onto the sitting receiver's reach limit
+    with the arm raised above its shoulder."""
     no_lean = DyadGeometry(lean_fraction_of_height=0.0)
-    both = plan_transfer(A, A, 0.2, no_lean)
-    receiver_sits = plan_transfer(A, SIT, 0.2, no_lean)
+    uncapped = DJTSettings(shoulder_angle_range_rad=(np.deg2rad(-150.0), UPPER_ARM_UNCAPPED_ANGLE_RAD))
+    both = plan_transfer(A, A, 0.2, no_lean, uncapped)
+    receiver_sits = plan_transfer(A, SIT, 0.2, no_lean, uncapped)
     assert receiver_sits.position_task_m[1] > both.position_task_m[1]
     assert "receiver_reach" in receiver_sits.active_constraints
     assert receiver_sits.position_task_m[1] > receiver_sits.dyad.receiver.shoulder_z_m
+
+
+def test_with_the_upper_arm_cap_the_sitting_finding_holds_even_without_lean():
+    """Capping the upper arm at horizontal removes the raised-arm reach-limit optimum: with no
+    lean at all the sitting receiver still gets a lower point, with its upper arm at most
+    horizontal (elbow not above the shoulder)."""
+    no_lean = DyadGeometry(lean_fraction_of_height=0.0)
+    both = plan_transfer(A, A, 0.2, no_lean)
+    receiver_sits = plan_transfer(A, SIT, 0.2, no_lean)
+    assert receiver_sits.position_task_m[1] < both.position_task_m[1] - 0.05
+    assert receiver_sits.optimum.receiver_joint_rad[0] <= 1e-6
