@@ -85,11 +85,15 @@ def test_hesitating_receiver_times_out_and_the_arm_retracts_with_the_object():
 
 
 def test_sitting_receiver_gets_a_lower_transfer_point_than_standing(standing_taking):
-    """The DJT optimum for a sitting receiver is lower (thesis §2.5). The planner re-plans as
-    the tracker's body estimates settle, and a sitting receiver's optimum sits on its reach
-    limit, which moves with them: compare the median height of every plan of each run."""
+    """The DJT optimum for a sitting receiver is lower (thesis §2.5), and the sitting receiver
+    takes the object. The planner re-plans as the tracker's body estimates settle: compare
+    the median height of every plan of each run, and the point the arm went to."""
     sitting = run_with_faults([], receiver="taking", seed=1, extra_args=("--posture", "sitting"))
-    assert _summary(sitting).receiver_posture == "sitting"
+    s = _summary(sitting)
+    assert s.receiver_posture == "sitting"
+    assert s.outcome == "released", s.reason
+    _never_dropped(sitting)
+    assert sitting.truth[-1][1].held_by == "receiver"
     assert _summary(standing_taking).receiver_posture == "standing"
 
     def median_z(rec, posture):
@@ -98,4 +102,5 @@ def test_sitting_receiver_gets_a_lower_transfer_point_than_standing(standing_tak
         return float(np.median(zs))
 
     z_sit, z_stand = median_z(sitting, "sitting"), median_z(standing_taking, "standing")
-    assert z_sit < z_stand, (z_sit, z_stand)
+    assert z_sit < z_stand - 0.05, (z_sit, z_stand)
+    assert s.transfer_point_base_m[2] < _summary(standing_taking).transfer_point_base_m[2] - 0.05
