@@ -342,10 +342,22 @@ class MotionController:
             return QuinticPath(p0, target, d, v0 if moving else None, a0 if moving else None)
 
         if goal.receiver_hand_position_m is not None:
-            duration = zone_limited_duration_s(
-                make_path, duration, np.array(goal.receiver_hand_position_m),
-                cfg.receiver_zone_radius_m, cfg.receiver_zone_speed_m_s,
-            )
+            hand = np.array(goal.receiver_hand_position_m)
+            try:
+                duration = zone_limited_duration_s(make_path, duration, hand, cfg.receiver_zone_radius_m,
+                                                   cfg.receiver_zone_speed_m_s)
+            except TrajectoryError:
+                if not moving:
+                    raise
+                # A new goal while the tool is already faster than the cap next to the hand (a
+                # re-plan mid-reach): no duration of a path that keeps the current speed can
+                # meet the cap. Slow down first: the new path starts at 90 % of the cap (the
+                # bridge's servo lag spreads the step over ~50 ms) and no acceleration.
+                speed = float(np.linalg.norm(v0))
+                v0 = v0 * min(1.0, 0.9 * cfg.receiver_zone_speed_m_s / speed)
+                a0 = np.zeros(3)
+                duration = zone_limited_duration_s(make_path, duration, hand, cfg.receiver_zone_radius_m,
+                                                   cfg.receiver_zone_speed_m_s)
         last_error = ""
         for _ in range(_STRETCH_ATTEMPTS):
             reach = CartesianReach(p0, target, r0, rotation, duration, v0 if moving else None,

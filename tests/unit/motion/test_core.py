@@ -238,3 +238,37 @@ def test_a_lagging_arm_comes_to_rest_after_a_stop(controller, q_pick, motion_con
         t += dt
         out = controller.step(t, arm.state.position_rad, measured_dq_rad_s=arm.state.velocity_rad_s)
     assert np.abs(arm.state.position_rad - q_rest).max() < 2e-3
+
+
+def test_a_replan_next_to_the_hand_while_moving_fast_slows_down_instead_of_failing(controller, q_pick):
+    """A new transfer goal arrives mid-reach with the tool already faster than the 0.25 m/s cap
+    inside the receiver's zone (a sitting receiver's hand lies next to a low path): the new
+    reach starts at 90 % of the cap and keeps it next to the hand, it does not fail."""
+    period = controller.config.period_s
+    measured = np.asarray(q_pick, dtype=float)
+    out = controller.step(0.0, measured, [goal(goal_id="a", kind="transfer", position_base_m=TRANSFER)], [])
+    t, prev_tool = 0.0, None
+    while t < 0.6:  # mid-reach: fast
+        t += period
+        out = controller.step(t, out.planned_q_rad, [], [], out.command_dq_rad_s)
+    tool_now, _ = controller.ik.tool_pose(out.planned_q_rad)
+    tool_next, _ = controller.ik.tool_pose(out.planned_q_rad + out.command_dq_rad_s * 1e-4)
+    speed = np.linalg.norm(tool_next - tool_now) / 1e-4
+    assert speed > 0.3  # faster than the cap when the new goal comes
+    hand = tool_now + np.array([0.05, 0.0, -0.05])  # the tool is inside the 0.3 m zone already
+    new_target = tuple(np.array(TRANSFER) + np.array([0.0, 0.0, -0.03]))
+    out = controller.step(t + period, out.planned_q_rad,
+                          [goal(goal_id="b", kind="transfer", position_base_m=new_target,
+                                receiver_hand_position_m=tuple(hand))], [], out.command_dq_rad_s)
+    assert out.status.state == "moving" and out.status.goal_id == "b", out.status
+    t += period
+    tools = []
+    while out.status.state == "moving" and t < 20.0:
+        t += period
+        out = controller.step(t, out.planned_q_rad, [], [], out.command_dq_rad_s)
+        tools.append(controller.ik.tool_pose(out.planned_q_rad)[0])
+    assert out.status.state == "reached", out.status
+    tools = np.array(tools)
+    speeds = np.linalg.norm(np.diff(tools, axis=0), axis=1) / period
+    near = np.linalg.norm(tools[1:] - hand, axis=1) < 0.3
+    assert near.any() and speeds[near].max() <= 0.25 * 1.03
