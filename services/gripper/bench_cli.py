@@ -3,6 +3,7 @@
 
     handover-bench                                           # CI-sized: 200 episodes each
     handover-bench -n 5000 --seed 1 --controllers FS1 HI SG --attribute --out out/gripper_bench_v2
+    handover-bench -n 10000 --seed 1000 --controllers HI SG --set SG:max_hold_force_n=18 --attribute   # a tuning run
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ from services.gripper.benchmark import (
     write_csv,
     write_plots,
 )
-from services.gripper.controllers import CONTROLLER_NAMES
+from services.gripper.controllers import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
 
 
@@ -38,6 +39,22 @@ def _positive_int(text: str) -> int:
     if v < 1:
         raise argparse.ArgumentTypeError(f"{text!r} must be a positive integer")
     return v
+
+
+def _override(text: str) -> tuple[str, str, float | bool]:
+    """`CONTROLLER:PARAM=VALUE` → (controller, param, value); VALUE a number, true or false."""
+    try:
+        name, rest = text.split(":", 1)
+        key, raw = rest.split("=", 1)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected CONTROLLER:PARAM=VALUE, e.g. SG:share_cap=1") from None
+    low = raw.strip().lower()
+    if low in ("true", "false"):
+        return name, key, low == "true"
+    try:
+        return name, key, float(raw)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: VALUE must be a number, true or false") from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -57,6 +74,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--attribute", action="store_true",
                    help="also run the max-hold and reactive-max-hold references and attribute every drop "
                         "(unavoidable, actuator-limited, receiver let go, controller); paired overshoot vs SG")
+    p.add_argument("--set", dest="overrides", type=_override, action="append", default=[],
+                   metavar="CONTROLLER:PARAM=VALUE",
+                   help="override one parameter of one controller (repeatable), e.g. SG:hold_per_weight=5")
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--log-level", default="warning", choices=["debug", "info", "warning", "error"])
@@ -67,9 +87,18 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of `handover-bench`; returns the exit code (2 on bad input)."""
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
+    overrides: dict[str, dict] = {}
+    for name, key, value in args.overrides:
+        overrides.setdefault(name, {})[key] = value
     try:
+        unknown = sorted(set(overrides) - set(args.controllers))
+        if unknown:
+            raise GripperError(f"--set names controller(s) {unknown} that are not in --controllers {args.controllers}")
+        for name, params in overrides.items():
+            make_controller(name, **params)  # refuse an unknown parameter before any episode runs
         result = run_benchmark(args.controllers, args.episodes, seed=args.seed, workers=args.workers,
-                               chunk_size=args.chunk_size, progress=not args.no_progress, attribute=args.attribute)
+                               chunk_size=args.chunk_size, progress=not args.no_progress, attribute=args.attribute,
+                               overrides=overrides)
     except GripperError as exc:
         print(f"handover-bench: error: {exc}", file=sys.stderr)
         return 2

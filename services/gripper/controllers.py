@@ -55,6 +55,7 @@ __all__ = [
     "ForceThresholdRelease",
     "SlipGuardController",
     "SlipGuardParams",
+    "SG_PRESETS",
     "HumanInspiredController",
     "HumanInspiredParams",
     "TimedRelease",
@@ -503,7 +504,7 @@ class SlipGuardParams:
         slide memory: while valid and |v| > v_th, if s_prev > s_guard:  s = max(s, s_prev)
                       (s_prev: the share one step before the slide began)
         demand[n] = g[n] · F_hold · clip((s − s_rel) / (1 − s_rel), 0, s_cap),
-        F_hold    = c_hold · W0 + F_min
+        F_hold    = min(c_hold · W0 + F_min, F_hold_max)
         g[n+1]    = min(g[n] + k_g T |v| / v_th, g_max)    if valid, |v| > v_th and s > s_guard
         catch:      demand = max(demand, g F_hold)          if valid, v_y > v_th and v_y > κ |v_x|
         F_G[n+1]  = demand                                  if demand ≥ F_G[n]   (grip up at once)
@@ -527,9 +528,25 @@ class SlipGuardParams:
     since the optical speed lags the wrist by up to a report) while the gripper carried the
     load then. Version 1 = `slip_share_memory=False, release_share=0.3, ease_off=0.3`.
 
+    Version 3 (the defaults; v2 is the preset "SG-v2" of `SG_PRESETS`) moves the grip from
+    where it raised the force overshoot to where it saves drops, tuned on seed 1000 only:
+    - hold cap F_hold_max = 20 N (v2: none): the heaviest objects (up to 0.6 kg) were held with
+      up to 4 · 5.9 + 1 = 24.5 N; a high-friction heavy object then needs a large pull to come
+      free while the 50 N/s actuator ramps the grip down (≈ 0.5 s from 24.5 N), and those
+      handovers made SG's overshoot tail. Above the cap a slippery heavy object relies on the
+      slip guard (g grows with the slide), which scales the capped hold.
+    - s_cap = 1 (v2: 3): the demand no longer grows above the hold when F_sy rises above the
+      rest weight. A receiver pulling *downward* while taking the object raised F_sy, so v2
+      gripped up to 3× harder against exactly the pull that takes it.
+    - c_hold = 5.5 (v2: 4): a firmer hold of light and medium objects (below the cap), which
+      buys back the drops the two changes above cost (dropping receivers that pull downward,
+      heavy slippery objects), where overshoot is low to begin with.
+
     Attributes:
         hold_per_weight: c_hold (1/μ the grip holds without adapting), dimensionless.
         min_hold_force_n: F_min, N.
+        max_hold_force_n: F_hold_max, N: largest rest hold (> F_min; inf = no cap, as in v2);
+            the slip guard's gain g and the catch multiply the capped hold.
         release_share: s_rel, load share at which the demand reaches zero.
         share_cap: s_cap, largest share the demand follows (downward pulls), dimensionless.
         guard_share: s_guard, the slip guard adapts g only above this load share.
@@ -544,10 +561,10 @@ class SlipGuardParams:
         max_grip_force_n: F_max, N (≤ 140 N).
     """
 
-    hold_per_weight: float = 4.0
+    hold_per_weight: float = 5.5
     min_hold_force_n: float = 1.0
     release_share: float = 0.5
-    share_cap: float = 3.0
+    share_cap: float = 1.0
     guard_share: float = 0.8
     slip_speed_threshold_m_s: float = 0.005
     adapt_rate_per_s: float = 20.0
@@ -557,6 +574,7 @@ class SlipGuardParams:
     ease_off: float = 1.0
     release_epsilon_n: float = 0.2
     max_grip_force_n: float = ABSOLUTE_MAX_GRIP_FORCE_N
+    max_hold_force_n: float = 20.0
 
     def __post_init__(self) -> None:
         for name in ("hold_per_weight", "share_cap", "slip_speed_threshold_m_s", "ease_off"):
@@ -570,6 +588,19 @@ class SlipGuardParams:
         if self.ease_off > 1.0:
             raise GripperError(f"ease_off must be in (0, 1], got {self.ease_off}")
         _check_max_force(self.max_grip_force_n)
+        if not self.max_hold_force_n > self.min_hold_force_n:
+            raise GripperError(f"max_hold_force_n must be > min_hold_force_n ({self.min_hold_force_n} N), "
+                               f"got {self.max_hold_force_n}")
+
+    def hold_force_n(self, rest_load_n):
+        """F_hold = min(c_hold · W0 + F_min, F_hold_max), N, per episode (W0 in N)."""
+        return np.minimum(self.hold_per_weight * np.asarray(rest_load_n, dtype=float) + self.min_hold_force_n,
+                          self.max_hold_force_n)
+
+    def load_level(self, share):
+        """Demand per unit hold for a load share s: clip((s − s_rel)/(1 − s_rel), 0, s_cap)."""
+        return np.clip((np.asarray(share, dtype=float) - self.release_share) / (1.0 - self.release_share),
+                       0.0, self.share_cap)
 
 
 class SlipGuardController(_BaseController):
@@ -605,13 +636,12 @@ class SlipGuardController(_BaseController):
                     "start it while the gripper holds the object"
                 )
             self.rest_load_n = fy.copy()
-            hold = p.hold_per_weight * self.rest_load_n + p.min_hold_force_n
-            self.grip_force_n = np.minimum(hold, p.max_grip_force_n)
+            self.grip_force_n = np.minimum(p.hold_force_n(self.rest_load_n), p.max_grip_force_n)
         w0 = self.rest_load_n
         share = fy / w0
         speed = np.hypot(vx, vy)
         slipping = valid & (speed > p.slip_speed_threshold_m_s)
-        hold = p.hold_per_weight * w0 + p.min_hold_force_n
+        hold = p.hold_force_n(w0)
         if p.slip_share_memory:
             # While the object slides the wrist reads kinetic friction along the slide, not the
             # load: keep the share seen one step before the slide began (if the gripper carried
@@ -623,7 +653,7 @@ class SlipGuardController(_BaseController):
         adapt = slipping & (share > p.guard_share)
         g_max = p.max_grip_force_n / hold
         self.gain = np.where(adapt, np.minimum(self.gain + p.adapt_rate_per_s * dt * speed / p.slip_speed_threshold_m_s, g_max), self.gain)
-        level = np.clip((share - p.release_share) / (1.0 - p.release_share), 0.0, p.share_cap)
+        level = p.load_level(share)
         guarding = share > p.guard_share
         resist = np.where(guarding, p.resist_per_force * np.hypot(fx, fy), 0.0)
         demand = self.gain * np.maximum(hold * level, resist)
@@ -634,6 +664,14 @@ class SlipGuardController(_BaseController):
         self.grip_force_n = np.clip(grip, 0.0, p.max_grip_force_n)
         self.mode = _estimate_mode(self.grip_force_n, sample, n, self.slip_accel_threshold_m_s2, p.slip_speed_threshold_m_s)
         return self.grip_force_n.copy()
+
+
+#: Named SG parameter sets: "SG" is the current version (3, the `SlipGuardParams` defaults);
+#: "SG-v2" the previous one, kept so the comparison can be re-run.
+SG_PRESETS: dict[str, SlipGuardParams] = {
+    "SG": SlipGuardParams(),
+    "SG-v2": SlipGuardParams(hold_per_weight=4.0, max_hold_force_n=math.inf, share_cap=3.0),
+}
 
 
 # --------------------------------------------------------------------------- registry
@@ -665,12 +703,15 @@ def _hi_factory(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripControll
     return HumanInspiredController(params, period_s=period_s)
 
 
-def _sg_factory(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
-    try:
-        params = SlipGuardParams(**overrides)
-    except TypeError as exc:
-        raise GripperError(f"SG: unknown parameter ({exc}); see SlipGuardParams") from None
-    return SlipGuardController(params, period_s=period_s)
+def _sg_factory(preset: str) -> Callable[..., GripController]:
+    def build(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
+        try:
+            params = replace(SG_PRESETS[preset], **overrides)
+        except TypeError as exc:
+            raise GripperError(f"{preset}: unknown parameter ({exc}); see SlipGuardParams") from None
+        return SlipGuardController(params, period_s=period_s)
+
+    return build
 
 
 def _kw_factory(cls) -> Callable[..., GripController]:
@@ -695,7 +736,9 @@ _REGISTRY: dict[str, _Entry] = {
     "displacement": _Entry(
         _kw_factory(DisplacementRelease), "baseline: impedance hand displaced ≥ 1 cm (Bohren et al.)"
     ),
-    "SG": _Entry(_sg_factory, "ours: slip-guarded load share (weight-scaled hold, slip-velocity guard and catch)"),
+    "SG": _Entry(_sg_factory("SG"), "ours, version 3: slip-guarded load share (weight-scaled hold capped at 20 N, "
+                                    "slip-velocity guard and catch)"),
+    "SG-v2": _Entry(_sg_factory("SG-v2"), "ours, version 2 (kept for comparison): c_hold=4, no hold cap, s_cap=3"),
 }
 
 CONTROLLER_NAMES: tuple[str, ...] = tuple(_REGISTRY)

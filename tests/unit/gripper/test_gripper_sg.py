@@ -1,4 +1,8 @@
-"""The slip-guarded load-share controller (SG) against hand-computed steps."""
+"""The slip-guarded load-share controller (SG) against hand-computed steps.
+
+The hand-computed steps of the law itself use the version 2 preset (`SG-v2`: c_hold = 4, no
+hold cap, s_cap = 3), whose numbers they were written for; version 3 (the `SG` default:
+c_hold = 5.5, F_hold capped at 20 N, s_cap = 1) has its own tests at the end."""
 
 from __future__ import annotations
 
@@ -11,7 +15,7 @@ from tests.unit.gripper.helpers import sample
 
 
 def sg(**kw) -> SlipGuardController:
-    c = make_controller("SG", **kw)
+    c = make_controller("SG-v2", **kw)
     c.reset(1)
     return c
 
@@ -111,3 +115,61 @@ def test_vectorised_equals_one_episode_at_a_time():
         one.reset(1)
         single = [one.step(sample(fx=fx[k, i], fy=fy[k, i], vx=vx[k, i], vy=vy[k, i]))[0] for k in range(steps)]
         np.testing.assert_allclose(out[:, i], single, rtol=0, atol=1e-12)
+
+
+# --------------------------------------------------------------------------- version 3
+
+
+def sg3(**kw) -> SlipGuardController:
+    c = make_controller("SG", **kw)
+    c.reset(1)
+    return c
+
+
+def test_v3_hold_is_weight_scaled_and_capped():
+    assert sg3().step(sample(fy=2.0))[0] == pytest.approx(5.5 * 2.0 + 1.0)  # 12 N, below the cap
+    assert sg3().step(sample(fy=5.0))[0] == pytest.approx(20.0)  # 5.5 · 5 + 1 = 28.5 N, capped at 20 N
+    c = make_controller("SG")
+    c.reset(3)  # per episode: 0.1 N → 1.55 N, 3.4 N → 19.7 N, 3.5 N → 20.25 → 20 N
+    np.testing.assert_allclose(c.step(sample(fy=np.array([0.1, 3.4, 3.5]))), [1.55, 19.7, 20.0], rtol=0, atol=1e-12)
+
+
+def test_v3_does_not_grip_harder_on_a_downward_pull():
+    # W0 = 2 N (hold 12 N); a downward pull doubles F_sy (share 2): level (2 − 0.5)/0.5 = 3,
+    # capped at s_cap = 1 in v3 (demand 12 N) but at 3 in v2 (demand 3 · 9 = 27 N).
+    c = sg3()
+    c.step(sample(fy=2.0))
+    assert c.step(sample(fy=4.0))[0] == pytest.approx(12.0)
+    c = sg()
+    c.step(sample(fy=2.0))
+    assert c.step(sample(fy=4.0))[0] == pytest.approx(27.0)
+    # below the hold the share is followed as before: share 0.75 → level 0.5 → 6 N
+    c = sg3()
+    c.step(sample(fy=2.0))
+    assert c.step(sample(fy=1.5))[0] == pytest.approx(6.0)
+
+
+def test_v3_slip_guard_and_catch_scale_the_capped_hold():
+    c = sg3()
+    c.step(sample(fy=5.0))  # hold 20 N (capped)
+    # |v| = 10 mm/s = 2 v_th: g = 1 + 20 · 0.01 · 2 = 1.4, demand 1.4 · 20 = 28 N (above the cap: the
+    # cap limits the rest hold, not what a slide asks for)
+    assert c.step(sample(fy=5.0, vx=0.01))[0] == pytest.approx(28.0)
+    for _ in range(3):
+        c.step(sample(fy=1.0))  # share 0.2 < s_rel: released
+    assert c.grip_force_n[0] == 0.0
+    # falling (v_y > 1.5 |v_x|): catch with g · F_hold = 28 N
+    assert c.step(sample(fy=0.0, vy=0.03))[0] == pytest.approx(28.0)
+
+
+def test_presets_and_hold_cap_validation():
+    assert make_controller("SG").params == SlipGuardParams()
+    assert make_controller("SG-v2").params == SlipGuardParams(hold_per_weight=4.0, max_hold_force_n=float("inf"),
+                                                              share_cap=3.0)
+    assert make_controller("SG-v2", ease_off=0.3).params.ease_off == 0.3
+    with pytest.raises(GripperError, match="max_hold_force_n"):
+        SlipGuardParams(max_hold_force_n=0.5)  # not above F_min = 1 N
+    with pytest.raises(GripperError, match="max_hold_force_n"):
+        SlipGuardParams(max_hold_force_n=float("nan"))
+    with pytest.raises(GripperError, match="SG-v2: unknown parameter"):
+        make_controller("SG-v2", colour=1.0)
