@@ -7,6 +7,9 @@ absent`); in every episode the test publishes a `gripper/release` while the supe
 publication to the first `robot/joint_state` with every |v| < 0.01 rad/s
 (`tests.faults.release_interrupt`). Baseline, same run: the supervisor's reaction alone
 (release event → its `motion/stop` received by the test); the ratio is total / reaction.
+Both are also measured by the senders' stamps (`stamp_ns`, one host clock: when the bridge
+published the first joint state at rest, when the supervisor sent its stop), which leaves out
+this test process's own receive delay when it is starved of CPU.
 JSON: out/bench/release_interrupt.json.
 """
 
@@ -41,10 +44,19 @@ def test_release_interrupt_latency_over_repeated_runs():
     reaction = summarize([s.event_to_stop_s for s in complete])
     state = summarize([s.event_to_released_state_s for s in complete if s.event_to_released_state_s is not None])
     speeds = np.array([s.speed_at_release_rad_s for s in complete])
+    stamped = [s for s in complete if s.stamp_event_to_rest_s is not None and s.stamp_event_to_stop_s is not None]
+    total_stamp = summarize([s.stamp_event_to_rest_s for s in stamped])
+    reaction_stamp = summarize([s.stamp_event_to_stop_s for s in stamped])
+
+    def cells(d):
+        return tuple(f"{d[k] * 1000:.1f}" for k in ("median", "p90", "p99", "max"))
+
     rows = [
-        ("release event → arm at rest (|v| < 0.01 rad/s)", *(f"{total[k] * 1000:.1f}" for k in ("median", "p90", "p99", "max"))),
-        ("release event → motion/stop (baseline)", *(f"{reaction[k] * 1000:.1f}" for k in ("median", "p90", "p99", "max"))),
-        ("release event → supervisor 'released'", *(f"{state[k] * 1000:.1f}" for k in ("median", "p90", "p99", "max"))),
+        ("release event → arm at rest (|v| < 0.01 rad/s), received", *cells(total)),
+        ("release event → motion/stop (baseline), received", *cells(reaction)),
+        ("release event → supervisor 'released', received", *cells(state)),
+        ("release event → arm at rest, by the bridge's stamp", *cells(total_stamp)),
+        ("release event → motion/stop, by the supervisor's stamp", *cells(reaction_stamp)),
     ]
     print()
     print(table(rows, ("latency (ms)", "median", "p90", "p99", "max")))
@@ -54,9 +66,11 @@ def test_release_interrupt_latency_over_repeated_runs():
           f"stacks ended by a protective stop: {len(stops)} {stops}")
     save("release_interrupt", {
         "event_to_rest_s": total, "event_to_stop_s": reaction, "event_to_released_state_s": state,
+        "stamp_event_to_rest_s": total_stamp, "stamp_event_to_stop_s": reaction_stamp,
         "ratio_total_to_reaction_median": total["median"] / reaction["median"],
         "speed_at_release_rad_s": {"median": float(np.median(speeds)), "min": float(speeds.min()),
                                    "max": float(speeds.max())},
-        "protective_stops": stops, "target_p99_s": TARGET_P99_S, "meets_target": total["p99"] <= TARGET_P99_S,
+        "protective_stops": stops, "target_p99_s": TARGET_P99_S, "meets_target_received": total["p99"] <= TARGET_P99_S,
+        "meets_target_by_stamp": total_stamp["p99"] <= TARGET_P99_S,
         "samples": [vars(s) for s in samples],
     })

@@ -43,6 +43,13 @@ class ReleaseSample:
     event_to_stop_s: float | None
     event_to_released_state_s: float | None
     event_to_rest_s: float | None
+    #: The same three by the senders' stamps (`stamp_ns`, one host clock): when the supervisor
+    #: sent its stop and its ``released`` state and when the bridge published the first joint
+    #: state at rest, from the release event's publication. The observer's own receive delay
+    #: (this test process starved of CPU) is not in these.
+    stamp_event_to_stop_s: float | None = None
+    stamp_event_to_released_state_s: float | None = None
+    stamp_event_to_rest_s: float | None = None
 
 
 def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 600.0,
@@ -91,6 +98,7 @@ def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 
                         wait_after_reach_s = rng.uniform(0.1, 0.6)
                     if pending is not None and phase == "released" and pending["released"] is None:
                         pending["released"] = rx.rx_monotonic
+                        pending["released_ns"] = rx.msg.stamp_ns
                     if phase in ("done", "failed", "protective_stop"):
                         done_episodes.add(episode_id)
                     if phase == "protective_stop":
@@ -100,18 +108,23 @@ def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 
             for rx in stops.drain():
                 if pending is not None and pending["stop"] is None and rx.msg.reason == "release":
                     pending["stop"] = rx.rx_monotonic
+                    pending["stop_ns"] = rx.msg.stamp_ns
             for rx in joints.drain():
                 speed = max((abs(v) for v in rx.msg.velocity_rad_s), default=0.0)
                 if pending is not None and pending["rest"] is None and rx.rx_monotonic >= pending["t0"] \
                         and speed < REST_SPEED_RAD_S:
                     pending["rest"] = rx.rx_monotonic
+                if pending is not None and pending["rest_ns"] is None and rx.msg.stamp_ns >= pending["t0_ns"] \
+                        and speed < REST_SPEED_RAD_S:
+                    pending["rest_ns"] = rx.msg.stamp_ns
                 if (pending is None or pending["episode"] != episode_id) and phase == "reach" \
                         and reach_since is not None and rx.rx_monotonic - reach_since >= wait_after_reach_s \
                         and speed >= MOVING_RAD_S and episode_id not in {s.episode_id for s in samples}:
                     if pending is not None:
                         samples.append(_sample(pending))
                     pending = {"episode": episode_id, "speed": speed, "stop": None, "released": None,
-                               "rest": None, "t0": time.monotonic()}
+                               "rest": None, "t0": time.monotonic(), "stop_ns": None, "released_ns": None,
+                               "rest_ns": None, "t0_ns": time.time_ns()}
                     release_pub.put(grip_force_n=0.0, pull_force_n=0.0, controller="release-bench")
             if pending is not None and pending["rest"] is not None and pending["stop"] is not None \
                     and pending["released"] is not None:
@@ -148,4 +161,8 @@ def _sample(p: dict) -> ReleaseSample:
     def since(key: str) -> float | None:
         return None if p[key] is None else p[key] - p["t0"]
 
-    return ReleaseSample(p["episode"], p["speed"], since("stop"), since("released"), since("rest"))
+    def since_ns(key: str) -> float | None:
+        return None if p[key] is None else (p[key] - p["t0_ns"]) / 1e9
+
+    return ReleaseSample(p["episode"], p["speed"], since("stop"), since("released"), since("rest"),
+                         since_ns("stop_ns"), since_ns("released_ns"), since_ns("rest_ns"))
