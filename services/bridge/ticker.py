@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from services.runtime import RateLimitedLog
+from services.runtime.loop import OVERRUN_LOG_PERIOD_S
 
 log = logging.getLogger(__name__)
 
@@ -66,7 +67,7 @@ class StopTicker:
         self.urgent = urgent
         self.name = name
         self.stats = TickerStats()
-        self._overrun_log = RateLimitedLog(log, 1.0)
+        self._overrun_log = RateLimitedLog(log, OVERRUN_LOG_PERIOD_S)
 
     def __iter__(self) -> Iterator[bool]:
         period = self.period_s

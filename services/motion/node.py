@@ -21,6 +21,7 @@ from services.motion.core import MotionController, arm_positions_from
 from services.motion.errors import MotionError
 from services.motion.ik import ArmIk
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
+from services.runtime.loop import OVERRUN_LOG_PERIOD_S
 
 log = logging.getLogger(__name__)
 
@@ -31,7 +32,7 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
     """Run the motion service until SIGINT/SIGTERM. Returns the exit code."""
     controller = MotionController(config, ArmIk(config))
     bad_state_log = RateLimitedLog(log, 1.0)
-    overrun_log = RateLimitedLog(log, 1.0)
+    overrun_log = RateLimitedLog(log, OVERRUN_LOG_PERIOD_S)
     period = config.period_s
     status_every_s = 1.0 / config.status_rate_hz
     joint_names = list(RIGHT_ARM_JOINTS)

@@ -12,6 +12,9 @@ from services.runtime.logs import RateLimitedLog
 
 log = logging.getLogger(__name__)
 
+#: A loop's overruns are logged at most once per this many seconds (each line counts them all).
+OVERRUN_LOG_PERIOD_S = 10.0
+
 
 @dataclass
 class LoopStats:
@@ -46,7 +49,7 @@ class RateLoop:
         self.stop_event = stop_event
         self.name = name
         self.stats = LoopStats()
-        self._overrun_log = RateLimitedLog(log, 1.0)
+        self._overrun_log = RateLimitedLog(log, OVERRUN_LOG_PERIOD_S)
 
     def __iter__(self) -> Iterator[int]:
         period = self.period_s
