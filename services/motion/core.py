@@ -79,6 +79,11 @@ class Status:
     tool_speed_m_s: float = 0.0
 
 
+class _RestFirst(Exception):
+    """The goal cannot start from the current motion (the tool is faster than the cap next to
+    the receiver's hand): brake to rest within the stop limits first, then plan it."""
+
+
 @dataclass(frozen=True)
 class TickOutput:
     """Result of one control tick.
@@ -141,6 +146,7 @@ class MotionController:
             np.full(n, config.stop_acceleration_rad_s2), np.full(n, config.stop_jerk_rad_s3),
         )
         self._mode = _Mode.IDLE
+        self._deferred_goal: MotionGoal | None = None
         self._status = Status("idle")
         self._goal_id = ""
         self._t0_s = 0.0
@@ -304,12 +310,25 @@ class MotionController:
     def _accept_goal(self, goal: MotionGoal, now_s: float) -> None:
         stop_first = self._mode in (_Mode.CARTESIAN, _Mode.JOINT)
         self._goal_id = goal.goal_id
+        self._deferred_goal = None  # a newer goal replaces one waiting for the arm to rest
         try:
             q0, dq0, ddq0 = self._start_state(now_s)
             if goal.kind == "transfer":
                 self._plan_transfer(goal, q0, dq0, ddq0)
             else:
                 self._plan_joint_move(goal, q0, dq0, ddq0)
+        except _RestFirst:
+            # Brake within the stop limits (the Ruckig stop), then plan this goal from rest,
+            # where a slow enough path next to the hand always exists.
+            self._begin_stop(now_s)
+            self._t0_s = now_s - self.config.period_s
+            self._set_status("moving", "slowing down next to the receiver's hand before the new reach",
+                             progress=0.0)
+            if self._mode is _Mode.STOPPING:
+                self._deferred_goal = goal
+            else:  # already at rest (or the stop could not be planned: holding): plan it now
+                self._accept_goal(goal, now_s)
+            return
         except (GoalRejected, IkError, TrajectoryError) as exc:
             self._fail(str(exc), now_s, stop_motion=stop_first)
             return
@@ -346,18 +365,12 @@ class MotionController:
             try:
                 duration = zone_limited_duration_s(make_path, duration, hand, cfg.receiver_zone_radius_m,
                                                    cfg.receiver_zone_speed_m_s)
-            except TrajectoryError:
+            except TrajectoryError as exc:
                 if not moving:
                     raise
                 # A new goal while the tool is already faster than the cap next to the hand (a
-                # re-plan mid-reach): no duration of a path that keeps the current speed can
-                # meet the cap. Slow down first: the new path starts at 90 % of the cap (the
-                # bridge's servo lag spreads the step over ~50 ms) and no acceleration.
-                speed = float(np.linalg.norm(v0))
-                v0 = v0 * min(1.0, 0.9 * cfg.receiver_zone_speed_m_s / speed)
-                a0 = np.zeros(3)
-                duration = zone_limited_duration_s(make_path, duration, hand, cfg.receiver_zone_radius_m,
-                                                   cfg.receiver_zone_speed_m_s)
+                # re-plan mid-reach): no path that starts at the current speed meets the cap.
+                raise _RestFirst(str(exc)) from None
         last_error = ""
         for _ in range(_STRETCH_ATTEMPTS):
             reach = CartesianReach(p0, target, r0, rotation, duration, v0 if moving else None,
@@ -494,6 +507,7 @@ class MotionController:
         self._mode = _Mode.STOPPING
 
     def _apply_stop(self, stop: MotionStop, now_s: float) -> None:
+        self._deferred_goal = None  # a stop cancels a goal waiting for the arm to rest
         if self._mode in (_Mode.CARTESIAN, _Mode.JOINT):
             self._begin_stop(now_s)
             # The stop's first command is already one period into the braking.
@@ -553,6 +567,9 @@ class MotionController:
                 self._ddq_cmd[:] = 0.0
                 self._tool_speed_m_s = 0.0
                 self._mode = _Mode.HOLD
+                if self._deferred_goal is not None:  # at rest: now plan the goal that waited
+                    goal, self._deferred_goal = self._deferred_goal, None
+                    self._accept_goal(goal, now_s)
         elif self._mode is _Mode.HOLD and self._q_cmd is not None:
             self._command(self._q_cmd, dt, np.zeros(7), np.zeros(7))
             if self._status.state == "moving":
