@@ -208,7 +208,7 @@ class HandoverScene:
                                           initial_grip_force_n=grip_command_n)
                 self.object_phase = "in_gripper"
         if self.plant is not None:
-            self._obs = self.plant.advance(max(dt_s, self.plant.dt_s), grip_command_n)
+            self._obs = self.plant.advance_real_time(dt_s, grip_command_n)
             self._update_from_plant(tool_m)
         self._update_receiver(dt_s, tool_m, tool_speed_m_s)
         return self._output()

@@ -32,6 +32,8 @@ floats → one episode, stacked arrays → a batch.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -138,6 +140,7 @@ class ContactPlant:
         self._noise = noise
         c, o = config, config.obj
         self.dt_s = c.dt_s
+        self._carry_s = 0.0  # advance_real_time: the fraction of a plant step not yet run, s
         self.step_index = 0
         init = np.asarray(initial_grip_force_n, dtype=float)
         if not np.all(np.isfinite(init)):
@@ -327,6 +330,20 @@ class ContactPlant:
         if k % self._opt_every == 0:
             self.optical.report(visible)
             self.optical_fresh = True
+
+    def advance_real_time(self, elapsed_s: float, grip_command_n) -> Observation:
+        """Real-time use at an irregular rate: run the whole plant steps that `elapsed_s` (s,
+        since the last call) completes, carrying the fraction of a step to the next call, so
+        the plant's time never runs ahead of the caller's (a short extra tick runs no step
+        and returns the current observation)."""
+        if not np.isfinite(elapsed_s) or elapsed_s < 0:
+            raise ContactSimError(f"elapsed_s must be finite and >= 0, got {elapsed_s}")
+        self._carry_s += elapsed_s
+        steps = int(math.floor(self._carry_s / self.dt_s + 1e-9))
+        if steps < 1:
+            return self.observation()
+        self._carry_s = max(0.0, self._carry_s - steps * self.dt_s)
+        return self.advance(steps * self.dt_s, grip_command_n)
 
     def advance(self, duration_s: float, grip_command_n) -> Observation:
         """Run whole plant steps covering `duration_s` (at least one) with a constant command,

@@ -74,8 +74,9 @@ class ContactSimBackend(SimBackend):
 
     def step(self, dt_s: float) -> None:
         super().step(dt_s)
-        # Whole 1 ms plant steps; a late tick advances by more (real time is kept).
-        self._obs = self.plant.advance(max(dt_s, self.plant.dt_s), self.grip_command_n)
+        # Whole 1 ms plant steps, the fraction carried over: a late tick advances by more and a
+        # short extra tick (a stop wakes the loop) by less, so plant time follows real time.
+        self._obs = self.plant.advance_real_time(dt_s, self.grip_command_n)
         tool = arm_model().tool_pose(self.arm.state.position_rad)[0]
         if self._last_tool is not None and dt_s > 0:
             self._tool_speed = float(np.linalg.norm(tool - self._last_tool) / dt_s)
