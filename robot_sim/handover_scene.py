@@ -85,9 +85,9 @@ class SceneParams:
         presentation_half_width_m: the object counts as presented within this distance
             (along base y) of the receiving shoulder's x–z plane, m.
         reach_duration_s: duration of the receiver's reach, s.
-        contact_distance_m: the hand touches the object within this distance, m. The simulated
-            body does not lean: a transfer point a few cm beyond its straight arm (the planner
-            assumes a 0.04·H lean) is still reached by the fingers.
+        contact_distance_m: the hand touches the object within this distance, m. (A transfer
+            point beyond the straight arm is reached by leaning the upper body, at most 0.04·H,
+            as the planner assumes: `robot_sim.kinect.receiver.ReceiverBody.joints`.)
         lift_clearance_m: the object counts as lifted this far above its table position, m.
     """
 

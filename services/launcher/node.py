@@ -14,6 +14,7 @@ arguments, port in use); 130 interrupted by Ctrl-C/SIGTERM.
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
 import time
@@ -218,7 +219,8 @@ class Launcher:
             say(f"bus on {self.profile.endpoint} (router in-process, loopback only, prefix {self.profile.prefix})")
             for spec in self.specs:
                 child = self._start(spec.name)
-                niceness = f" at nice {spec.nice}" if spec.nice else ""
+                effective = max(spec.nice, os.getpriority(os.PRIO_PROCESS, 0))  # never below the launcher's
+                niceness = f" at nice {effective}" if effective else ""
                 say(f"started {spec.name} (pid {child.pid}){niceness}: python -m {spec.module}")
                 if spec.name == RECORDER:
                     # Nothing may be published before the recorder listens.

@@ -115,9 +115,9 @@ class ModelConfig(_Cfg, frozen=True, kw_only=True):
     max_reach_fraction: float = 1.0
     object_load: Literal["giver", "receiver", "both", "none"] = "giver"
     lean_fraction_of_height: float = 0.04
-    #: Highest upper-arm elevation from hanging a human actor takes an object with, deg
-    #: (90 = upper arm horizontal; 180 = the thesis's model, capped only by the arm straight
-    #: up). See `djt.UPPER_ARM_MAX_ANGLE_RAD`.
+    #: Highest upper-arm elevation from hanging an actor takes an object with, deg (90 =
+    #: upper arm horizontal; 180 = the thesis's model, capped only by the arm straight up).
+    #: Both modelled arms, the robot giver's included. See `djt.UPPER_ARM_MAX_ANGLE_RAD`.
     max_upper_arm_elevation_deg: float = 90.0
     grasp_fraction_of_hand: float = 0.5
     use_measured_shoulder_height: bool = True

@@ -36,9 +36,10 @@ log = logging.getLogger(__name__)
 
 STANDARD_GRAVITY_M_S2 = 9.80665
 ObjectLoad = Literal["giver", "receiver", "both", "none"]
-#: Highest upper-arm angle above the facing horizontal a human actor holds for a handover,
-#: rad: the upper arm at most horizontal (elevation 90° from hanging). The elbow may still
-#: lift the hand above the shoulder.
+#: Highest upper-arm angle above the facing horizontal an actor holds for a handover, rad:
+#: the upper arm at most horizontal (elevation 90° from hanging). The elbow may still lift the
+#: hand above the shoulder. It applies to both modelled arms, the robot giver's included (the
+#: thesis models the robot as a human, §2.5).
 UPPER_ARM_MAX_ANGLE_RAD = 0.0
 #: The thesis's model as written: no cap other than the arm pointing straight up, rad.
 UPPER_ARM_UNCAPPED_ANGLE_RAD = float(np.pi / 2.0)

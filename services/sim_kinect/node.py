@@ -45,7 +45,7 @@ def run_kinect(profile: Profile, config: KinectConfig) -> int:
         log.info("kinect running", extra=kv(rate_hz=config.rate_hz, scene=config.scene, posture=config.posture,
                                             height_m=config.height_m, seed=config.seed))
         waiting_logged = False
-        t0 = time.monotonic()
+        t0: float | None = None  # the scripted reach's clock starts at the first rendered frame
         try:
             for _tick in node.loop(config.rate_hz):
                 state = joint_state.latest()
@@ -65,6 +65,8 @@ def run_kinect(profile: Profile, config: KinectConfig) -> int:
                                     None if latest_truth is None else latest_truth.msg.receiver_hand_position_m,
                                     None if latest_truth is None else latest_truth.msg.object_position_m)
                 try:
+                    if t0 is None:
+                        t0 = time.monotonic()
                     frame = sim.step(time.monotonic() - t0, q, object_position_m=scene.object_position_m,
                                      right_hand_m=scene.right_hand_m)
                 except Exception as exc:  # a bad frame must not kill the camera
