@@ -76,6 +76,8 @@ from services.bridge.baxter.ros1 import Ros1DecodeError, Ros1Message, Time
 from services.bridge.config import ContactConfig
 from services.runtime import Profile, RateLimitedLog, ServiceNode, base_parser, kv, load_profile, run_main
 from services.sim_kinect.config import KinectConfig
+from services.sim_kinect.config import parse_config as parse_kinect_config
+from services.sim_kinect.errors import KinectConfigError
 
 log = logging.getLogger(__name__)
 
@@ -336,9 +338,14 @@ class FakeBaxter:
 
 def parse_fake_config(table: dict[str, Any]) -> FakeBaxterConfig:
     try:
-        return msgspec.convert(table, FakeBaxterConfig)
+        config = msgspec.convert(table, FakeBaxterConfig)
     except msgspec.ValidationError as exc:
         raise BaxterConfigError(f"invalid [services.fake_baxter.config]: {exc}") from None
+    try:  # the same checks as the kinect service's own table (e.g. a 3-value hand target)
+        parse_kinect_config(dict(table.get("kinect", {})), "[services.fake_baxter.config.kinect]")
+    except KinectConfigError as exc:
+        raise BaxterConfigError(str(exc)) from None
+    return config
 
 
 def run_fake(profile: Profile, config: FakeBaxterConfig, baxter: BaxterConfig) -> int:
