@@ -149,6 +149,16 @@ def first_rest_after(joints: list[tuple[float, Any]], t0_s: float) -> float | No
     return None
 
 
+def stamp_s(msg: Any) -> float:
+    """A message's sender stamp (`stamp_ns`, wall clock of this host), s."""
+    return msg.stamp_ns / 1e9
+
+
+def by_stamp(pairs: list[tuple[float, Any]]) -> list[tuple[float, Any]]:
+    """(receive time, message) pairs re-keyed by the sender's stamp, in stamp order."""
+    return sorted(((stamp_s(m), m) for _t, m in pairs), key=lambda p: p[0])
+
+
 def motion_between(joints: list[tuple[float, Any]], start_s: float, end_s: float) -> tuple[float, float] | None:
     """The fastest joint state in [start_s, end_s) above `MOVE_SPEED_RAD_S`: (time, speed)."""
     worst = None
@@ -228,27 +238,33 @@ def judge(rec: RunRecord, strict_exit: bool = True) -> Verdict:
     if not rec.truth:
         violations.append("no sim truth recorded")
 
-    # 2. no motion after a protective stop (to the end) or a release stop (to the retract goal)
+    # 2. no motion after a protective stop (to the end) or a release stop (to the retract goal),
+    # judged by the senders' stamps (one host clock): when the bridge measured the arm and when
+    # the supervisor sent its stop and goals. This test process receives different keys on
+    # different threads, so under load its receive order can put a joint state of the retract
+    # before the retract goal that caused it.
     end_s = math.inf
-    t_prot = first_protective_stop(rec, -math.inf)
-    if t_prot is not None:
-        rest = first_rest_after(rec.joints, t_prot)
+    joints = by_stamp(rec.joints)
+    prot = [m for _t, m in rec.stops if m.protective]
+    if prot:
+        t_prot = stamp_s(prot[0])
+        rest = first_rest_after(joints, t_prot)
         if rest is not None:
-            moved = motion_between(rec.joints, rest, end_s)
+            moved = motion_between(joints, rest, end_s)
             if moved:
                 violations.append(f"arm moved after the protective stop: {moved[1]:.3f} rad/s at "
-                                  f"t={moved[0]:.3f} (at rest since {rest:.3f})")
-    release_stops = [t for t, m in rec.stops if not m.protective and m.reason == "release"]
+                                  f"t={moved[0]:.3f} (at rest since {rest:.3f}, sender clock)")
+    release_stops = [stamp_s(m) for _t, m in rec.stops if not m.protective and m.reason == "release"]
     if release_stops:
         t_rel = release_stops[0]
-        retract_goals = [t for t, g in rec.goals if t >= t_rel and g.kind == "retract"]
+        retract_goals = [stamp_s(g) for _t, g in rec.goals if stamp_s(g) >= t_rel and g.kind == "retract"]
         until = retract_goals[0] if retract_goals else end_s
-        rest = first_rest_after(rec.joints, t_rel)
+        rest = first_rest_after(joints, t_rel)
         if rest is not None:
-            moved = motion_between(rec.joints, rest, until)
+            moved = motion_between(joints, rest, until)
             if moved:
                 violations.append(f"arm moved after the release stop before the retract: {moved[1]:.3f} rad/s "
-                                  f"at t={moved[0]:.3f}")
+                                  f"at t={moved[0]:.3f} (sender clock)")
 
     # 3./4. reported, clear exit; latencies
     for inj in rec.injections:

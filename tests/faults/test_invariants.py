@@ -9,17 +9,22 @@ from tests.faults.invariants import FaultPlan, Injection, RunRecord, judge
 H = {"seq": 0, "stamp_ns": 0, "source": "t"}
 
 
-def js(v):
-    return JointState(**H, names=["a", "b"], position_rad=[0.0, 0.0], velocity_rad_s=[v, 0.0])
+def at(t_s):
+    """A header stamped at `t_s` (the senders' clock; the judge orders motion checks by it)."""
+    return {"seq": 0, "stamp_ns": int(round(t_s * 1e9)), "source": "t"}
+
+
+def js(v, t_s=0.0):
+    return JointState(**at(t_s), names=["a", "b"], position_rad=[0.0, 0.0], velocity_rad_s=[v, 0.0])
 
 
 def record(speeds, stop_at=1.0, exit_code=1, service="motion", dropped_at=None):
     rec = RunRecord(receiver="absent")
     rec.injections = [Injection(FaultPlan("kill", service), at_s=0.9, at_wall_s=1000.0, phase_seen_s=0.5)]
-    rec.joints = [(0.01 * i, js(v)) for i, v in enumerate(speeds)]
+    rec.joints = [(0.01 * i, js(v, 0.01 * i)) for i, v in enumerate(speeds)]
     rec.truth = [(0.01 * i, SimTruth(**H, dropped=dropped_at is not None and 0.01 * i >= dropped_at))
                  for i in range(len(speeds))]
-    rec.stops = [(stop_at, MotionStop(**H, reason=f"protective stop: {service}: lost", protective=True))]
+    rec.stops = [(stop_at, MotionStop(**at(stop_at), reason=f"protective stop: {service}: lost", protective=True))]
     rec.summaries = [(1.5, EpisodeSummary(**H, episode_id=1, outcome="protective_stop",
                                           reason=f"protective stop: {service}: process gone",
                                           faults=[f"{service}: process gone"]))]
@@ -55,11 +60,15 @@ def test_the_retract_after_a_release_is_allowed_but_moving_before_it_is_not():
     speeds = [0.4] * 100 + [0.0] * 50 + [0.5] * 20
     rec = record(speeds)
     rec.injections, rec.exit_code = [], 0
-    rec.stops = [(1.0, MotionStop(**H, reason="release"))]
-    rec.goals = [(1.5, MotionGoal(**H, goal_id="r", kind="retract"))]
+    rec.stops = [(1.0, MotionStop(**at(1.0), reason="release"))]
+    rec.goals = [(1.5, MotionGoal(**at(1.5), goal_id="r", kind="retract"))]
     assert judge(rec).ok
-    rec.goals = [(1.6, MotionGoal(**H, goal_id="r", kind="retract"))]
+    rec.goals = [(1.6, MotionGoal(**at(1.6), goal_id="r", kind="retract"))]
     assert any("before the retract" in x for x in judge(rec).violations)
+    # The observer got the retract goal late (received at 1.7 s, sent at 1.5 s): the senders'
+    # stamps decide, so this is no violation.
+    rec.goals = [(1.7, MotionGoal(**at(1.5), goal_id="r", kind="retract"))]
+    assert judge(rec).ok, judge(rec).violations
 
 
 def test_an_armed_fault_acts_only_while_its_file_exists(tmp_path, monkeypatch):

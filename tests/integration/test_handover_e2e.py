@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from tests.faults.harness import run_with_faults
-from tests.faults.invariants import first_rest_after, motion_between
+from tests.faults.invariants import by_stamp, first_rest_after, motion_between, stamp_s
 
 pytestmark = pytest.mark.integration
 
@@ -57,11 +57,12 @@ def test_taking_receiver_gets_the_object_and_the_arm_stops_at_the_release(standi
     # two messages of different keys when it is starved of CPU.
     stops = [m for _t, m in rec.stops if m.reason == "release" and m.stamp_ns >= release.stamp_ns]
     assert stops, f"no release stop: stops {[(m.reason, m.stamp_ns) for _t, m in rec.stops]}, release {release.stamp_ns}"
-    rest = first_rest_after(rec.joints, t_release)
-    assert rest is not None and rest - t_release < 0.2
-    retract = [t for t, g in rec.goals if g.kind == "retract" and t > t_release]
+    joints, t_rel = by_stamp(rec.joints), stamp_s(release)
+    rest = first_rest_after(joints, t_rel)
+    assert rest is not None and rest - t_rel < 0.2
+    retract = [stamp_s(g) for _t, g in rec.goals if g.kind == "retract" and stamp_s(g) > t_rel]
     assert retract, "no retract goal after the release"
-    moved = motion_between(rec.joints, rest, retract[0])
+    moved = motion_between(joints, rest, retract[0])
     assert moved is None, f"the arm moved after the release stop: {moved}"
     assert s.release_to_stop_s < 0.1
 
