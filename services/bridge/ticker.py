@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from services.runtime import RateLimitedLog
-from services.runtime.loop import OVERRUN_LOG_PERIOD_S
+from services.runtime.loop import OVERRUN_LOG_PERIOD_S, skip_missed
 
 log = logging.getLogger(__name__)
 
@@ -81,13 +81,7 @@ class StopTicker:
             next_deadline += period
             now = time.monotonic()
             if now > next_deadline:
-                missed = int((now - next_deadline) // period) + 1
-                self.stats.overruns += 1
-                self.stats.skipped += missed - 1
-                next_deadline += (missed - 1) * period
-                self._overrun_log.warning(
-                    "overrun", f"{self.name} tick overran its {period * 1e3:.1f} ms period",
-                    overruns=self.stats.overruns, late_ms=round((now - next_deadline + period) * 1e3, 2))
+                next_deadline = skip_missed(self.stats, self._overrun_log, self.name, period, next_deadline, now)
                 continue
             extra_allowed = True
             while not node.should_stop:

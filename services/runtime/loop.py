@@ -7,6 +7,7 @@ import threading
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
+from typing import Any
 
 from services.runtime.logs import RateLimitedLog
 
@@ -33,13 +34,27 @@ class LoopStats:
     worst_lateness_s: float = 0.0
 
 
+def skip_missed(stats: Any, overrun_log: RateLimitedLog, name: str, period_s: float,
+                next_deadline_s: float, now_s: float) -> float:
+    """A tick's work ran past `next_deadline_s` (monotonic s): count the overrun and the
+    deadlines skipped (`stats.overruns`, `stats.skipped`), log it (rate-limited) and return the
+    deadline to wait for next: the last missed one, so the loop does not burst to catch up."""
+    missed = int((now_s - next_deadline_s) // period_s) + 1
+    stats.overruns += 1
+    stats.skipped += missed - 1
+    next_deadline_s += (missed - 1) * period_s
+    overrun_log.warning("overrun", f"{name} tick overran its {period_s * 1e3:.1f} ms period",
+                        overruns=stats.overruns, late_ms=round((now_s - next_deadline_s + period_s) * 1e3, 2))
+    return next_deadline_s
+
+
 class RateLoop:
     """Iterate at `rate_hz` until `stop_event` is set.
 
     Each iteration yields the tick index. Sleeping uses ``stop_event.wait`` so a shutdown
     request ends the loop at once. When a tick's work overruns the period the loop does not
     try to catch up with a burst: it skips the missed deadlines, counts them and logs at most
-    once a second.
+    once every `OVERRUN_LOG_PERIOD_S`.
     """
 
     def __init__(self, rate_hz: float, stop_event: threading.Event, name: str = "loop") -> None:
@@ -64,15 +79,6 @@ class RateLoop:
             next_deadline += period
             now = time.monotonic()
             if now > next_deadline:
-                missed = int((now - next_deadline) // period) + 1
-                self.stats.overruns += 1
-                self.stats.skipped += missed - 1
-                next_deadline += (missed - 1) * period
-                self._overrun_log.warning(
-                    "overrun",
-                    f"{self.name} tick overran its {period * 1e3:.1f} ms period",
-                    overruns=self.stats.overruns,
-                    late_ms=round((now - next_deadline + period) * 1e3, 2),
-                )
+                next_deadline = skip_missed(self.stats, self._overrun_log, self.name, period, next_deadline, now)
                 continue
             self.stop_event.wait(next_deadline - now)
