@@ -401,6 +401,6 @@ def write_plots(result: BenchResult, rows: list[ControllerStats], out_dir: Path,
 
 
 if __name__ == "__main__":  # `python -m services.gripper.benchmark` (the handover-bench CLI)
-    from services.gripper.bench_cli import main
+    from services.gripper.cli_bench import main
 
     raise SystemExit(main())

@@ -131,6 +131,6 @@ def robot(out: Path) -> None:
 
 
 if __name__ == "__main__":  # `python -m services.planner.figures --out docs/img`
-    from services.planner.figures_cli import main
+    from services.planner.cli_figures import main
 
     raise SystemExit(main())

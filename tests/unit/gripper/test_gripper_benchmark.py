@@ -14,7 +14,7 @@ from robot_sim.contact.controllers import ConstantGrip
 from robot_sim.contact.episode import run_vectorised
 from robot_sim.contact.receiver import stack_receivers, taking
 from services.gripper import benchmark as B
-from services.gripper.bench_cli import main as bench_main
+from services.gripper.cli_bench import main as bench_main
 from services.gripper.episodes import EpisodeDistribution, EpisodeObjectParams, sample_chunk
 from services.gripper.errors import GripperError
 

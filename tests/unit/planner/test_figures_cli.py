@@ -6,7 +6,7 @@ import re
 
 import matplotlib.image as mpimg
 
-from services.planner.figures_cli import main
+from services.planner.cli_figures import main
 
 
 def test_figures_cli_writes_three_pngs_and_prints_the_figure3_optimum(tmp_path, capsys):
