@@ -15,7 +15,6 @@ Usage:
 
 from __future__ import annotations
 
-import argparse
 import logging
 import math
 import sys
@@ -434,38 +433,7 @@ def reproduce(presets: list[str], img_dir: Path | None, rrd_dir: Path | None) ->
     return claims, written
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
-        prog="python -m services.gripper.reproduce",
-        description="Reproduce thesis Figures 20-23 (thesis model mode) and compare with the thesis's statements.",
-    )
-    parser.add_argument("--preset", action="append", choices=sorted(PRESET_TAGS),
-                        help="fail-safe parameter set (repeatable; default: FS-sim-g5 and FS-sim-g1)")
-    parser.add_argument("--img-dir", type=Path, default=Path("docs/img"), help="where PNGs go (default docs/img)")
-    parser.add_argument("--rrd-dir", type=Path, default=Path("out/reproduction"), help="where .rrd files go")
-    parser.add_argument("--table", type=Path, default=Path("out/reproduction/table.md"), help="Markdown table output")
-    parser.add_argument("--no-images", action="store_true", help="skip PNGs")
-    parser.add_argument("--no-rrd", action="store_true", help="skip Rerun recordings")
-    return parser
+if __name__ == "__main__":  # `python -m services.gripper.reproduce` (the CLI is services.gripper.cli_reproduce)
+    from services.gripper.cli_reproduce import main
 
-
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
-    presets = args.preset or ["FS-sim-g5", "FS-sim-g1"]
-    try:
-        claims, written = reproduce(presets, None if args.no_images else args.img_dir, None if args.no_rrd else args.rrd_dir)
-        table = claims_table(claims)
-        args.table.parent.mkdir(parents=True, exist_ok=True)
-        args.table.write_text(table, encoding="utf-8")
-    except (GripperError, OSError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
-        return 1
-    print(table)
-    for path in written + [args.table]:
-        print(f"wrote {path}")
-    return 0
-
-
-if __name__ == "__main__":
     sys.exit(main())

@@ -6,7 +6,6 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import matplotlib
@@ -106,13 +105,7 @@ def make_docs_figures(out_dir: Path) -> list[Path]:
     return written
 
 
-def main(argv: list[str] | None = None) -> int:
-    argv = sys.argv[1:] if argv is None else argv
-    out = Path(argv[0]) if argv else Path("docs/img")
-    for path in make_docs_figures(out):
-        print(path)
-    return 0
+if __name__ == "__main__":  # `python -m services.motion.figures [OUT_DIR]`
+    from services.motion.cli_figures import main
 
-
-if __name__ == "__main__":
     raise SystemExit(main())

@@ -7,8 +7,8 @@ import math
 import pytest
 
 from services.gripper import analysis as A
-from services.gripper import reproduce
-from services.gripper.analysis_cli import main
+from services.gripper import cli_reproduce, reproduce
+from services.gripper.cli_analysis import main
 from services.gripper.controllers import FS_PRESETS
 
 
@@ -45,5 +45,5 @@ def test_reproduction_writes_recordings_and_table(tmp_path):
 
 @pytest.mark.long
 def test_reproduction_pngs(tmp_path):
-    assert reproduce.main(["--preset", "FS-sim-g5", "--img-dir", str(tmp_path), "--no-rrd", "--table", str(tmp_path / "t.md")]) == 0
+    assert cli_reproduce.main(["--preset", "FS-sim-g5", "--img-dir", str(tmp_path), "--no-rrd", "--table", str(tmp_path / "t.md")]) == 0
     assert (tmp_path / "gripper_fig20_g5.png").stat().st_size > 10_000

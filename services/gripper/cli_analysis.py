@@ -1,10 +1,10 @@
 """Command line for the fail-safe analysis (thesis §3.4.3–3.4.4) and its figures.
 
 Examples:
-    python -m services.gripper.analysis_cli fst --phi-deg 20 --preset FS1
-    python -m services.gripper.analysis_cli fbt --phi-deg 0 --preset FS-sim-g1 --no-integrator
-    python -m services.gripper.analysis_cli conditions --preset FS-sim-g5
-    python -m services.gripper.analysis_cli figures --out docs/img
+    python -m services.gripper.cli_analysis fst --phi-deg 20 --preset FS1
+    python -m services.gripper.cli_analysis fbt --phi-deg 0 --preset FS-sim-g1 --no-integrator
+    python -m services.gripper.cli_analysis conditions --preset FS-sim-g5
+    python -m services.gripper.cli_analysis figures --out docs/img
 """
 
 from __future__ import annotations
@@ -148,14 +148,14 @@ def cmd_figures(args) -> int:
 
 
 def cmd_reproduce(args) -> int:
-    from services.gripper import reproduce
+    from services.gripper import cli_reproduce
 
-    return reproduce.main(args.rest)
+    return cli_reproduce.main(args.rest)
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="python -m services.gripper.analysis_cli",
+        prog="python -m services.gripper.cli_analysis",
         description="Fail-safe gripper analysis: F_ST, F_BT, rest condition, tolerated acceleration, φ_max; Figures 18-19.",
     )
     sub = parser.add_subparsers(dest="command", required=True)
