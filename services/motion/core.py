@@ -165,6 +165,7 @@ class MotionController:
         self._reach: CartesianReach | None = None
         self._reach_q0 = np.zeros(n)
         self._reach_end_tick = 0
+        self._path_time_s, self._path_started = 0.0, False  # Cartesian path time, s
         self._ticks_after_end = 0
         self._joint_traj: JointTrajectory | None = None
         self._end_s = 0.0
@@ -333,6 +334,7 @@ class MotionController:
             self._fail(str(exc), now_s, stop_motion=stop_first)
             return
         self._t0_s = now_s
+        self._path_time_s, self._path_started = 0.0, False
         self._end_s = now_s + self._duration_s
         self._ticks_after_end = 0
         self._set_status("moving", "", progress=0.0)
@@ -551,7 +553,15 @@ class MotionController:
             dt = min(max(now_s - self._last_now_s, 0.5 * cfg.period_s), 2.0 * cfg.period_s)
         elapsed = now_s - self._t0_s
         if self._mode is _Mode.CARTESIAN:
-            self._advance_cartesian(now_s, elapsed, dt)
+            # Path time advances by the (clamped) tick period, not the wall clock: a tick that
+            # comes late (the process starved of CPU) pauses the path instead of making the
+            # target jump further than one IK step can follow.
+            if self._path_started:
+                self._path_time_s += dt
+            self._path_started = True
+            # The planned end moves with the pauses (the settle time-out counts from it).
+            self._end_s = max(self._end_s, now_s + max(0.0, self._duration_s - self._path_time_s))
+            self._advance_cartesian(now_s, self._path_time_s, dt)
         elif self._mode is _Mode.JOINT:
             q, dq, ddq = self._joint_traj.state_at(elapsed)
             self._command(q, dt, dq, ddq)
