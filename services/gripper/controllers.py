@@ -684,15 +684,21 @@ class _Entry:
     defaults: dict = field(default_factory=dict)
 
 
-def _fs_factory(preset: str) -> Callable[..., GripController]:
+def _preset_factory(preset: str, presets: dict, controller: Callable[..., GripController],
+                    params_doc: str) -> Callable[..., GripController]:
+    """Builder of a named parameter preset (FS1, SG, ...), with keyword overrides."""
     def build(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
         try:
-            params = replace(FS_PRESETS[preset], **overrides)
+            params = replace(presets[preset], **overrides)
         except TypeError as exc:
-            raise GripperError(f"{preset}: unknown parameter ({exc}); see FailSafeParams") from exc
-        return FailSafeController(params, period_s=period_s)
+            raise GripperError(f"{preset}: unknown parameter ({exc}); see {params_doc}") from None
+        return controller(params, period_s=period_s)
 
     return build
+
+
+def _fs_factory(preset: str) -> Callable[..., GripController]:
+    return _preset_factory(preset, FS_PRESETS, FailSafeController, "FailSafeParams")
 
 
 def _hi_factory(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
@@ -704,14 +710,7 @@ def _hi_factory(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripControll
 
 
 def _sg_factory(preset: str) -> Callable[..., GripController]:
-    def build(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
-        try:
-            params = replace(SG_PRESETS[preset], **overrides)
-        except TypeError as exc:
-            raise GripperError(f"{preset}: unknown parameter ({exc}); see SlipGuardParams") from None
-        return SlipGuardController(params, period_s=period_s)
-
-    return build
+    return _preset_factory(preset, SG_PRESETS, SlipGuardController, "SlipGuardParams")
 
 
 def _kw_factory(cls) -> Callable[..., GripController]:
