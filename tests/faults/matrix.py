@@ -11,7 +11,9 @@ Every run is one `handover-up` (taking receiver) with one fault injected at the 
 or drop that silences a stream may end in a named protective stop). Results accumulate in
 ``out/faults/matrix.json`` (a cell with enough runs is skipped on the next call, so an
 interrupted campaign resumes) and the table is rewritten to ``out/faults/matrix.md`` after
-every run.
+every run. Cells are filled round by round (every chosen cell gets its 1st run, then its 2nd,
+...), so a campaign stopped by its budget leaves an even table rather than a few full cells.
+Each run records the commit it ran on and its wall time.
 
 Per service, delay/drop/flood hit the topic it publishes that the handover depends on most
 (`SERVICE_TOPIC`); delay 0.3 s (twice the 0.15 s stream time-out), drop p = 0.5, flood
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -61,6 +64,32 @@ def plan_for(service: str, phase: str, fault: str) -> FaultPlan:
     return FaultPlan("flood", service, phase, topic=topic, duration_s=FLOOD_S, rate_hz=FLOOD_HZ)
 
 
+def current_commit() -> str:
+    """The short hash of the checkout the runs start (with ``+dirty`` for local changes)."""
+    repo = OUT.parents[1]
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=repo, capture_output=True, text=True,
+                              check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=repo,
+                               capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+    return head + ("+dirty" if dirty else "")
+
+
+def round_robin(cells: list[tuple[str, str, str]], done: dict[str, int], runs: int) -> list[tuple[str, str, str]]:
+    """The order of the runs still to do: round r gives every cell with fewer than r runs one
+    more, for r = 1..`runs` (cells keyed ``service/phase/fault`` in `done`)."""
+    order: list[tuple[str, str, str]] = []
+    have = {c: done.get("/".join(c), 0) for c in cells}
+    for round_no in range(1, runs + 1):
+        for c in cells:
+            if have[c] < round_no:
+                order.append(c)
+                have[c] += 1
+    return order
+
+
 def _pct(values: list[float], q: float) -> str:
     return f"{np.percentile(values, q) * 1000:.0f}" if values else "–"
 
@@ -85,8 +114,10 @@ def render(results: dict) -> str:
                     + f" | {_pct(det, 50)} / {_pct(det, 99)} | {_pct(stop, 50)} / {_pct(stop, 99)} |")
     total = sum(len(c["runs"]) for c in results.values())
     violations = sum(1 for c in results.values() for r in c["runs"] if r["violations"])
+    commits = sorted({r.get("commit", "unknown") for c in results.values() for r in c["runs"]})
     head = (f"Fault matrix: {len(results)} cells, {total} runs, {violations} runs with an invariant violation "
-            f"(taking receiver; fault at the phase entry; latencies from the fault).\n\n")
+            f"(taking receiver; fault at the phase entry; latencies from the fault; "
+            f"commit{'s' if len(commits) > 1 else ''} {', '.join(commits)}).\n\n")
     return head + "\n".join(rows) + "\n"
 
 
@@ -109,35 +140,36 @@ def main(argv: list[str] | None = None) -> int:
     json_path, md_path = args.out / "matrix.json", args.out / "matrix.md"
     results = json.loads(json_path.read_text()) if json_path.exists() else {}
     started = time.monotonic()
-    for service in chosen[0]:
-        for phase in chosen[1]:
-            for fault in chosen[2]:
-                key = f"{service}/{phase}/{fault}"
-                cell = results.setdefault(key, {"cell": [service, phase, fault], "runs": []})
-                while len(cell["runs"]) < args.runs:
-                    if time.monotonic() - started > args.budget_s:
-                        print(f"matrix: budget of {args.budget_s:.0f} s used up; run again to resume")
-                        return 0
-                    plan = plan_for(service, phase, fault)
-                    seed = len(cell["runs"])
-                    try:
-                        rec = run_with_faults([plan], receiver="taking", seed=seed)
-                    except Exception as exc:  # a harness failure is recorded, the campaign goes on
-                        cell["runs"].append({"seed": seed, "violations": [f"harness: {exc}"], "outcome": "error",
-                                             "missed": False, "detection_s": None, "stop_s": None,
-                                             "exit_code": None, "exit_line": ""})
-                    else:
-                        v = judge(rec, strict_exit=False)
-                        cell["runs"].append({
-                            "seed": seed, "violations": v.violations, "outcome": v.outcome,
-                            "missed": bool(rec.phases_missed), "exit_code": v.exit_code, "exit_line": v.exit_line,
-                            "detection_s": v.detection_s.get(plan.label), "stop_s": v.stop_s.get(plan.label),
-                        })
-                    last = cell["runs"][-1]
-                    print(f"{key} run {len(cell['runs'])}: {last['outcome']} exit {last['exit_code']} "
-                          f"violations {len(last['violations'])}", flush=True)
-                    json_path.write_text(json.dumps(results, indent=1))
-                    md_path.write_text(render(results))
+    commit = current_commit()
+    cells = [(s, p, f) for s in chosen[0] for p in chosen[1] for f in chosen[2]]
+    todo = round_robin(cells, {k: len(c["runs"]) for k, c in results.items()}, args.runs)
+    print(f"matrix: {len(todo)} runs to do over {len(cells)} cells on commit {commit}", flush=True)
+    for n_done, (service, phase, fault) in enumerate(todo):
+        if time.monotonic() - started > args.budget_s:
+            print(f"matrix: budget of {args.budget_s:.0f} s used up after {n_done} runs; run again to resume")
+            break
+        key = f"{service}/{phase}/{fault}"
+        cell = results.setdefault(key, {"cell": [service, phase, fault], "runs": []})
+        plan = plan_for(service, phase, fault)
+        seed = len(cell["runs"])
+        run_started = time.monotonic()
+        try:
+            rec = run_with_faults([plan], receiver="taking", seed=seed)
+        except Exception as exc:  # a harness failure is recorded, the campaign goes on
+            run = {"seed": seed, "violations": [f"harness: {exc}"], "outcome": "error", "missed": False,
+                   "detection_s": None, "stop_s": None, "exit_code": None, "exit_line": ""}
+        else:
+            v = judge(rec, strict_exit=False)
+            run = {"seed": seed, "violations": v.violations, "outcome": v.outcome,
+                   "missed": bool(rec.phases_missed), "exit_code": v.exit_code, "exit_line": v.exit_line,
+                   "detection_s": v.detection_s.get(plan.label), "stop_s": v.stop_s.get(plan.label)}
+        run["commit"] = commit
+        run["wall_s"] = round(time.monotonic() - run_started, 2)
+        cell["runs"].append(run)
+        print(f"[{n_done + 1}/{len(todo)}] {key} run {len(cell['runs'])}: {run['outcome']} "
+              f"exit {run['exit_code']} violations {len(run['violations'])} ({run['wall_s']:.0f} s)", flush=True)
+        json_path.write_text(json.dumps(results, indent=1))
+        md_path.write_text(render(results))
     md_path.write_text(render(results))
     return 0
 

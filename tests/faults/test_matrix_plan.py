@@ -1,0 +1,48 @@
+"""The fault matrix's run order and table, without running the stack."""
+
+from __future__ import annotations
+
+from tests.faults.matrix import plan_for, render, round_robin
+
+CELLS = [("motion", "reach", "kill"), ("motion", "reach", "flood"), ("bridge", "transfer", "freeze")]
+
+
+def test_round_robin_fills_every_cell_before_any_second_run():
+    order = round_robin(CELLS, {"motion/reach/flood": 1}, runs=3)
+    # round 1: the two cells without a run; round 2: all three; round 3: all three
+    assert order[:2] == [CELLS[0], CELLS[2]]
+    assert order[2:5] == CELLS and order[5:] == CELLS
+    assert len(order) == 3 * 3 - 1
+
+
+def test_round_robin_has_nothing_to_do_for_full_cells():
+    assert round_robin(CELLS, {"/".join(c): 10 for c in CELLS}, runs=10) == []
+    assert round_robin(CELLS, {"/".join(c): 12 for c in CELLS}, runs=10) == []
+
+
+def test_plan_for_targets_the_service_topic():
+    flood = plan_for("tracker", "transfer", "flood")
+    assert (flood.kind, flood.topic, flood.duration_s, flood.rate_hz) == ("flood", "perception/human", 2.0, 1000.0)
+    assert plan_for("bridge", "reach", "kill").topic is None
+    assert plan_for("gripper", "pick", "drop").value == 0.5
+
+
+def _run(seed, violations=(), outcome="released", det=0.05, commit="abc1234"):
+    return {"seed": seed, "violations": list(violations), "outcome": outcome, "missed": False, "exit_code": 0,
+            "exit_line": "", "detection_s": det, "stop_s": None, "commit": commit}
+
+
+def test_render_counts_runs_violations_and_commits():
+    results = {"motion/reach/kill": {"cell": ["motion", "reach", "kill"],
+                                     "runs": [_run(0, det=0.02), _run(1, ["arm moved"], "protective_stop", 0.04)]},
+               "bridge/transfer/freeze": {"cell": ["bridge", "transfer", "freeze"],
+                                          "runs": [_run(0, det=0.2, commit="def5678")]}}
+    text = render(results)
+    assert text.startswith("Fault matrix: 2 cells, 3 runs, 1 runs with an invariant violation")
+    assert "commits abc1234, def5678" in text
+    lines = text.splitlines()
+    bridge = next(line for line in lines if line.startswith("| bridge |"))
+    motion = next(line for line in lines if line.startswith("| motion |"))
+    assert lines.index(bridge) < lines.index(motion)  # sorted by cell
+    assert "| 2 | 1 | protective_stop 1, released 1 | 30 / 40 |" in motion
+    assert "| 1 | 0 | released 1 | 200 / 200 |" in bridge
