@@ -329,9 +329,13 @@ class ReplanPolicy:
         self._last = inputs
 
 
-def object_mass_from_estimate(found: bool, mass_kg: float, configured_kg: float) -> float:
-    """The object's mass: the tracker's estimate when found and > 0, else the configured one."""
-    if found and mass_kg > 0.0 and math.isfinite(mass_kg):
+def object_mass_from_estimate(mass_kg: float, configured_kg: float) -> float:
+    """The object's mass, kg: the tracker's when it gives one (> 0), else the configured one.
+
+    The tracker's mass comes from the task description, not the camera, so it holds while the
+    object is out of view (in the gripper: ``found`` is False). Falling back to the configured
+    mass whenever the object is hidden made the plan flip between two masses and re-plan."""
+    if mass_kg > 0.0 and math.isfinite(mass_kg):
         return float(mass_kg)
     return float(configured_kg)
 
@@ -374,7 +378,6 @@ class PlannerService:
         self,
         human: HumanState | None,
         human_rx_s: float | None,
-        object_found: bool,
         object_mass_kg: float,
         now_s: float,
     ) -> tuple[dict[str, Any] | None, str | None]:
@@ -383,7 +386,7 @@ class PlannerService:
         Args:
             human: latest receiver state (None before the first).
             human_rx_s: its local receive time (`time.monotonic()`), s.
-            object_found, object_mass_kg: latest object estimate (False/0 when none).
+            object_mass_kg: the latest object estimate's mass, kg (0 when none).
             now_s: local monotonic time, s.
 
         Returns:
@@ -394,7 +397,7 @@ class PlannerService:
         if now_s - human_rx_s > self.human_timeout_s:
             return None, None
         note = None
-        mass = object_mass_from_estimate(object_found, object_mass_kg, self.cfg.object_mass_kg)
+        mass = object_mass_from_estimate(object_mass_kg, self.cfg.object_mass_kg)
         try:
             receiver = receiver_from_human_state(human, self.cfg, self.frame)
             inputs = PlanInputs(receiver, mass)

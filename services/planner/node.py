@@ -43,7 +43,6 @@ def run(args: argparse.Namespace) -> int:
             fields, note = service.step(
                 human.msg if human else None,
                 human.rx_monotonic if human else None,
-                bool(obj and obj.msg.found),
                 obj.msg.mass_kg if obj else 0.0,
                 time.monotonic(),
             )

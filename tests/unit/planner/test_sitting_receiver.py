@@ -139,7 +139,7 @@ def _tracked_plan_heights(posture: str, seed: int) -> list[float]:
         human = msgspec.convert(
             {"seq": k, "stamp_ns": 0, "source": "tracker", **human_fields(est)}, HumanState
         )
-        fields, _ = service.step(human, t, False, 0.0, t)
+        fields, _ = service.step(human, t, 0.0, t)
         if fields is not None:
             assert fields["receiver_posture"] == posture
             heights.append(fields["position_task_m"][1])
