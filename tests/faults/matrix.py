@@ -94,8 +94,41 @@ def _pct(values: list[float], q: float) -> str:
     return f"{np.percentile(values, q) * 1000:.0f}" if values else "–"
 
 
+def summary(results: dict) -> str:
+    """Markdown: a service × fault grid (runs / runs with a violation, over all phases) and,
+    per fault, the outcomes and the detection and stop latencies over all its runs."""
+    grid: dict[tuple[str, str], list[int]] = {}
+    by_fault: dict[str, list[dict]] = {}
+    for cell in results.values():
+        service, _phase, fault = cell["cell"]
+        n_bad = grid.setdefault((service, fault), [0, 0])
+        n_bad[0] += len(cell["runs"])
+        n_bad[1] += sum(1 for r in cell["runs"] if r["violations"])
+        by_fault.setdefault(fault, []).extend(cell["runs"])
+    services = [s for s in SERVICES if any(k[0] == s for k in grid)]
+    faults = [f for f in FAULTS if f in by_fault]
+    lines = ["| runs / violations | " + " | ".join(faults) + " |", "|---" * (len(faults) + 1) + "|"]
+    for service in services:
+        lines.append(f"| {service} | " + " | ".join(
+            "{} / {}".format(*grid[(service, f)]) if (service, f) in grid else "–" for f in faults) + " |")
+    lines += ["", "| fault | runs | outcomes | detection p50/p99 (ms), n | stop p50/p99 (ms), n |",
+              "|---|---|---|---|---|"]
+    for fault in faults:
+        runs = by_fault[fault]
+        outcomes: dict[str, int] = {}
+        for r in runs:
+            name = "missed" if r["missed"] else r["outcome"]
+            outcomes[name] = outcomes.get(name, 0) + 1
+        det = [r["detection_s"] for r in runs if r["detection_s"] is not None]
+        stop = [r["stop_s"] for r in runs if r["stop_s"] is not None]
+        lines.append(f"| {fault} | {len(runs)} | " + ", ".join(f"{k} {v}" for k, v in sorted(outcomes.items()))
+                     + f" | {_pct(det, 50)} / {_pct(det, 99)}, {len(det)} | {_pct(stop, 50)} / {_pct(stop, 99)}, "
+                     f"{len(stop)} |")
+    return "\n".join(lines) + "\n"
+
+
 def render(results: dict) -> str:
-    """The Markdown table of the results (one row per cell)."""
+    """Markdown: the headline, the `summary` and the table of the results (one row per cell)."""
     rows = ["| service | phase | fault | runs | violations | outcomes | detection p50/p99 (ms) | stop p50/p99 (ms) |",
             "|---|---|---|---|---|---|---|---|"]
     for key in sorted(results, key=lambda k: tuple(results[k]["cell"])):
@@ -118,7 +151,7 @@ def render(results: dict) -> str:
     head = (f"Fault matrix: {len(results)} cells, {total} runs, {violations} runs with an invariant violation "
             f"(taking receiver; fault at the phase entry; latencies from the fault; "
             f"commit{'s' if len(commits) > 1 else ''} {', '.join(commits)}).\n\n")
-    return head + "\n".join(rows) + "\n"
+    return head + summary(results) + "\n" + "\n".join(rows) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:

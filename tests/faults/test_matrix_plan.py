@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from tests.faults.matrix import plan_for, render, round_robin
+from tests.faults.matrix import plan_for, render, round_robin, summary
 
 CELLS = [("motion", "reach", "kill"), ("motion", "reach", "flood"), ("bridge", "transfer", "freeze")]
 
@@ -41,8 +41,21 @@ def test_render_counts_runs_violations_and_commits():
     assert text.startswith("Fault matrix: 2 cells, 3 runs, 1 runs with an invariant violation")
     assert "commits abc1234, def5678" in text
     lines = text.splitlines()
-    bridge = next(line for line in lines if line.startswith("| bridge |"))
-    motion = next(line for line in lines if line.startswith("| motion |"))
+    bridge = next(line for line in lines if line.startswith("| bridge | transfer |"))
+    motion = next(line for line in lines if line.startswith("| motion | reach |"))
     assert lines.index(bridge) < lines.index(motion)  # sorted by cell
     assert "| 2 | 1 | protective_stop 1, released 1 | 30 / 40 |" in motion
     assert "| 1 | 0 | released 1 | 200 / 200 |" in bridge
+
+
+def test_summary_grid_and_latencies_per_fault():
+    results = {"motion/reach/kill": {"cell": ["motion", "reach", "kill"],
+                                     "runs": [_run(0, det=0.02), _run(1, ["arm moved"], "protective_stop", 0.04)]},
+               "motion/transfer/kill": {"cell": ["motion", "transfer", "kill"], "runs": [_run(0, det=0.03)]},
+               "bridge/transfer/flood": {"cell": ["bridge", "transfer", "flood"], "runs": [_run(0, det=None)]}}
+    lines = summary(results).splitlines()
+    assert lines[0] == "| runs / violations | kill | flood |"
+    assert lines[2] == "| bridge | – | 1 / 0 |" and lines[3] == "| motion | 3 / 1 | – |"
+    kill = next(line for line in lines if line.startswith("| kill |"))
+    assert kill == "| kill | 3 | protective_stop 1, released 2 | 30 / 40, 3 | – / –, 0 |"
+    assert next(line for line in lines if line.startswith("| flood |")).endswith("| – / –, 0 | – / –, 0 |")
