@@ -12,6 +12,8 @@ pixels drops out.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from robot_sim.kinect import camera as cam
@@ -32,24 +34,23 @@ class DepthRenderer:
     def __init__(self, camera: KinectCamera) -> None:
         self.camera = camera
         self.rays = camera.rays_base()
+        self._dd = np.einsum("...i,...i->...", self.rays, self.rays)
         self._h, self._w = camera.height_px, camera.width_px
 
-    def _rect(self, points_m: np.ndarray, radius_m: float) -> tuple[int, int, int, int] | None:
+    def _rect(self, uv: list[list[float]], z: list[float], radius_m: float) -> tuple[int, int, int, int] | None:
         """Pixel rectangle (u0, u1, v0, v1) that holds the projection of spheres of
-        `radius_m` around `points_m`; None when nothing can be visible."""
-        c = self.camera
-        uv, z = c.project(points_m)
-        if np.all(z <= 0.0):
+        `radius_m` around points projected to `uv` (pixels) at depths `z` (m); None when
+        nothing can be visible."""
+        if max(z) <= 0.0:
             return None
-        if np.any(z <= 0.05):
+        if min(z) <= 0.05:
             return 0, self._w, 0, self._h
-        pad = 1.3 * radius_m * c.fx_px / z + 2.0
-        u0 = int(np.floor(np.min(uv[:, 0] - pad)))
-        u1 = int(np.ceil(np.max(uv[:, 0] + pad))) + 1
-        v0 = int(np.floor(np.min(uv[:, 1] - pad)))
-        v1 = int(np.ceil(np.max(uv[:, 1] + pad))) + 1
-        u0, v0 = max(u0, 0), max(v0, 0)
-        u1, v1 = min(u1, self._w), min(v1, self._h)
+        fx = self.camera.fx_px
+        pads = [1.3 * radius_m * fx / zi + 2.0 for zi in z]
+        u0 = max(math.floor(min(p[0] - d for p, d in zip(uv, pads, strict=True))), 0)
+        u1 = min(math.ceil(max(p[0] + d for p, d in zip(uv, pads, strict=True))) + 1, self._w)
+        v0 = max(math.floor(min(p[1] - d for p, d in zip(uv, pads, strict=True))), 0)
+        v1 = min(math.ceil(max(p[1] + d for p, d in zip(uv, pads, strict=True))) + 1, self._h)
         if u0 >= u1 or v0 >= v1:
             return None
         return u0, u1, v0, v1
@@ -59,24 +60,41 @@ class DepthRenderer:
         capsules: list[Capsule],
         boxes: list[Box] = (),
         floor_z_m: float | None = None,
+        background: np.ndarray | None = None,
     ) -> np.ndarray:
-        """Noise-free depth (H, W) in metres, +inf where nothing is hit."""
+        """Noise-free depth (H, W) in metres, +inf where nothing is hit.
+
+        Args:
+            capsules, boxes: the primitives (m, `base`).
+            floor_z_m: height of a horizontal floor plane (m, `base`), None for none.
+            background: a depth image of parts that do not move (a `render` of them), drawn
+                behind the primitives: the static scene is cast once, not every frame.
+        """
         origin = self.camera.position_m
-        if floor_z_m is not None:
-            depth = ray_horizontal_plane(origin, self.rays, floor_z_m)
+        if background is not None:
+            if background.shape != (self._h, self._w):
+                raise ValueError(f"background is {background.shape}, the camera is {(self._h, self._w)}")
+            depth = background.copy()
         else:
             depth = np.full((self._h, self._w), np.inf)
-        for capsule in capsules:
-            rect = self._rect(np.stack([capsule.a_m, capsule.b_m]), capsule.radius_m)
-            if rect is None:
-                continue
-            u0, u1, v0, v1 = rect
-            t = ray_capsule(origin, self.rays[v0:v1, u0:u1], capsule)
-            np.minimum(depth[v0:v1, u0:u1], t, out=depth[v0:v1, u0:u1])
+        if floor_z_m is not None:
+            np.minimum(depth, ray_horizontal_plane(origin, self.rays, floor_z_m), out=depth)
+        if capsules:
+            ends = np.array([(c.a_m, c.b_m) for c in capsules], float).reshape(-1, 3)
+            uv, z = self.camera.project(ends)
+            uv_l, z_l = uv.tolist(), z.tolist()
+            for i, capsule in enumerate(capsules):
+                rect = self._rect(uv_l[2 * i:2 * i + 2], z_l[2 * i:2 * i + 2], capsule.radius_m)
+                if rect is None:
+                    continue
+                u0, u1, v0, v1 = rect
+                t = ray_capsule(origin, self.rays[v0:v1, u0:u1], capsule, self._dd[v0:v1, u0:u1])
+                np.minimum(depth[v0:v1, u0:u1], t, out=depth[v0:v1, u0:u1])
         for box in boxes:
             lo, hi = np.asarray(box.lower_m, float), np.asarray(box.upper_m, float)
             corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-            rect = self._rect(corners, 0.0)
+            uv, z = self.camera.project(corners)
+            rect = self._rect(uv.tolist(), z.tolist(), 0.0)
             if rect is None:
                 continue
             u0, u1, v0, v1 = rect

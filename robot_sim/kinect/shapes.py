@@ -33,26 +33,32 @@ class Box:
     upper_m: np.ndarray
 
 
-def _ray_sphere(oc: np.ndarray, dirs: np.ndarray, dd: np.ndarray, r2: float) -> np.ndarray:
-    """Entry parameter into a sphere whose centre is at `-oc` from the origin, +inf on a miss."""
-    b = dirs @ oc
-    c = float(oc @ oc) - r2
+def _sphere_entry(b: np.ndarray, c: np.ndarray | float, dd: np.ndarray) -> np.ndarray:
+    """Entry parameter into a sphere, +inf on a miss or a hit behind the origin.
+
+    With `oc` the origin minus the sphere's centre: b = d·oc, c = oc·oc − r², dd = d·d."""
     h = b * b - dd * c
     ok = h >= 0.0
     t = (-b - np.sqrt(np.where(ok, h, 0.0))) / dd
     return np.where(ok & (t > 0.0), t, np.inf)
 
 
-def ray_capsule(origin_m: np.ndarray, dirs: np.ndarray, capsule: Capsule) -> np.ndarray:
+def ray_capsule(origin_m: np.ndarray, dirs: np.ndarray, capsule: Capsule,
+                dd: np.ndarray | None = None) -> np.ndarray:
     """Smallest positive ray parameter of the hit with `capsule`, +inf on a miss.
 
-    The capsule is the union of a finite cylinder and two end spheres; the entry into the
-    union (for an origin outside it) is the smallest entry into any part.
+    The capsule lies inside the infinite cylinder around its axis. A ray that misses that
+    cylinder misses the capsule; one that enters it between the ends hits the body there;
+    one that enters it beyond an end can only hit that end's sphere (Quílez's capsule
+    intersection). Rays parallel to the axis test both end spheres. The origin must be
+    outside the capsule (the camera is).
 
     Args:
         origin_m: (3,) common ray origin.
         dirs: (..., 3) ray directions.
         capsule: the capsule.
+        dd: (...,) the rays' squared lengths ``dirs · dirs``, when the caller keeps them
+            (the renderer does: they do not change between frames).
 
     Returns:
         (...,) ray parameters t.
@@ -61,16 +67,17 @@ def ray_capsule(origin_m: np.ndarray, dirs: np.ndarray, capsule: Capsule) -> np.
     ba = np.asarray(capsule.b_m, float) - pa
     oa = np.asarray(origin_m, float) - pa
     r2 = capsule.radius_m**2
-    dd = np.einsum("...i,...i->...", dirs, dirs)
-    t = _ray_sphere(oa, dirs, dd, r2)
+    if dd is None:
+        dd = np.einsum("...i,...i->...", dirs, dirs)
+    rdoa = dirs @ oa
+    oaoa = float(oa @ oa)
     baba = float(ba @ ba)
     if baba <= 1e-12:
-        return t
-    t = np.minimum(t, _ray_sphere(oa - ba, dirs, dd, r2))
+        return _sphere_entry(rdoa, oaoa - r2, dd)
     baoa = float(ba @ oa)
-    oaoa = float(oa @ oa)
+    ob = oa - ba
+    obob = float(ob @ ob)
     bard = dirs @ ba
-    rdoa = dirs @ oa
     a = baba * dd - bard * bard
     b = baba * rdoa - baoa * bard
     c = baba * oaoa - baoa * baoa - r2 * baba
@@ -79,7 +86,14 @@ def ray_capsule(origin_m: np.ndarray, dirs: np.ndarray, capsule: Capsule) -> np.
     t_cyl = (-b - np.sqrt(np.where(hit, h, 0.0))) / np.where(hit, a, 1.0)
     y = baoa + t_cyl * bard
     body = hit & (y > 0.0) & (y < baba) & (t_cyl > 0.0)
-    return np.where(body, np.minimum(t, t_cyl), t)
+    beyond_b = y >= baba
+    t_cap = _sphere_entry(np.where(beyond_b, rdoa - bard, rdoa), np.where(beyond_b, obob - r2, oaoa - r2), dd)
+    t = np.where(body, t_cyl, np.where(hit, t_cap, np.inf))
+    parallel = a <= 1e-12
+    if np.any(parallel):
+        t[parallel] = np.minimum(_sphere_entry(rdoa[parallel], oaoa - r2, dd[parallel]),
+                                 _sphere_entry(rdoa[parallel] - bard[parallel], obob - r2, dd[parallel]))
+    return t
 
 
 def ray_box(origin_m: np.ndarray, dirs: np.ndarray, box: Box) -> np.ndarray:

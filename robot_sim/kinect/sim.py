@@ -151,6 +151,10 @@ class KinectSim:
         self.errors = SkeletonErrorModel(self.scenario.skeleton_errors, self.rng)
         self.renderer = DepthRenderer(self.camera)
         self._table_top, self._table_legs = table_boxes_and_legs()
+        self._camera_orientation_xyzw = self.camera.orientation_xyzw  # the camera does not move
+        #: The floor and the table do not move: cast once, drawn behind every frame.
+        self._static_depth_m = self.renderer.render(self._table_legs, [self._table_top],
+                                                    floor_z_m=-scene.BASE_HEIGHT_ABOVE_FLOOR_M)
         self._hand_start = self.body.rest_hand_m
         target = self.scenario.hand_target_base_m
         self._hand_target = None if target is None else np.asarray(target, float)
@@ -197,9 +201,9 @@ class KinectSim:
         joints_arr = np.stack([joints[n] for n in SKELETON_JOINTS])
         tool = self.arm.tool_position(q_arm_rad)
         obj = scene.OBJECT_PICK_BASE_M if object_position_m is None else np.asarray(object_position_m, float)
-        capsules = self.body.capsules(joints) + self.arm.capsules(q_arm_rad) + self._table_legs
-        boxes = [self._table_top, object_box(obj, self.scenario.object_size_m)]
-        depth_m = self.renderer.render(capsules, boxes, floor_z_m=-scene.BASE_HEIGHT_ABOVE_FLOOR_M)
+        capsules = self.body.capsules(joints) + self.arm.capsules(q_arm_rad)
+        boxes = [object_box(obj, self.scenario.object_size_m)]
+        depth_m = self.renderer.render(capsules, boxes, background=self._static_depth_m)
         noise_rng = self.rng if self.scenario.depth_noise else None
         depth_mm = kinect_depth_mm(depth_m, noise_rng, self.scenario.depth_dropout_fraction if noise_rng else 0.0)
         tracked, est, conf = self.errors.step(t_s, joints_arr, tool)
@@ -221,7 +225,7 @@ class KinectSim:
             "cx": c.cx_px,
             "cy": c.cy_px,
             "camera_position_m": tuple(float(v) for v in c.position_m),
-            "camera_orientation_xyzw": c.orientation_xyzw,
+            "camera_orientation_xyzw": self._camera_orientation_xyzw,
         }
         truth = KinectTruth(
             t_s=float(t_s),

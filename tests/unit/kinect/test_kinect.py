@@ -29,6 +29,66 @@ def test_ray_capsule_matches_sphere_and_cylinder_by_hand():
     assert ray_box(origin, dirs[:1], box)[0] == pytest.approx(3.0)
 
 
+def _capsule_by_parts(origin, dirs, capsule):
+    """Reference: the smallest forward entry into either end sphere or the finite cylinder,
+    each solved on its own (a slower formulation than `ray_capsule`'s)."""
+    def sphere(centre):
+        oc = origin - centre
+        a, b, c = np.sum(dirs * dirs, -1), dirs @ oc, oc @ oc - capsule.radius_m**2
+        h = b * b - a * c
+        t = (-b - np.sqrt(np.maximum(h, 0.0))) / a
+        return np.where((h >= 0) & (t > 0), t, np.inf)
+
+    axis = capsule.b_m - capsule.a_m
+    length = np.linalg.norm(axis)
+    u = axis / length
+    oa = origin - capsule.a_m
+    d_perp = dirs - np.outer(dirs @ u, u)
+    o_perp = oa - (oa @ u) * u
+    a, b, c = np.sum(d_perp**2, -1), d_perp @ o_perp, o_perp @ o_perp - capsule.radius_m**2
+    h = b * b - a * c
+    t_cyl = (-b - np.sqrt(np.maximum(h, 0.0))) / np.where(a > 0, a, 1.0)
+    along = oa @ u + t_cyl * (dirs @ u)
+    t_cyl = np.where((h >= 0) & (a > 0) & (t_cyl > 0) & (along > 0) & (along < length), t_cyl, np.inf)
+    return np.minimum(np.minimum(sphere(capsule.a_m), sphere(capsule.b_m)), t_cyl)
+
+
+def test_ray_capsule_matches_the_parts_on_random_rays_and_capsules():
+    rng = np.random.default_rng(3)
+    origin = np.array([0.1, -0.2, 0.3])
+    dirs = rng.normal(size=(4000, 3)) * [0.4, 0.4, 1.0] + [0.0, 0.0, 1.0]
+    dirs[:5] = [0.0, 0.0, 1.0]  # along the axis of the last capsules below (parallel rays)
+    hits = 0
+    for k in range(40):
+        a = origin + rng.uniform([-1, -1, 0.5], [1, 1, 3])
+        b = a + rng.normal(size=3) * 0.3 if k < 35 else a + [0.0, 0.0, 0.4]
+        cap = Capsule(a, b, float(rng.uniform(0.02, 0.3)))
+        if k >= 35:
+            cap = Capsule(origin + [0.0, 0.0, 1.0 + 0.1 * k - 3.5], origin + [0.0, 0.0, 1.4 + 0.1 * k - 3.5], 0.05)
+        want, got = _capsule_by_parts(origin, dirs, cap), ray_capsule(origin, dirs, cap)
+        assert np.array_equal(np.isinf(want), np.isinf(got)), k
+        fin = np.isfinite(want)
+        hits += fin.sum()
+        np.testing.assert_allclose(got[fin], want[fin], rtol=1e-9, atol=1e-12)
+    assert hits > 2000  # the rays do hit
+
+
+def test_static_background_renders_like_the_whole_scene():
+    cam = KinectCamera()
+    renderer = DepthRenderer(cam)
+    table = Box(np.array([0.5, -0.6, -0.2]), np.array([1.2, 0.2, -0.15]))
+    leg = Capsule(np.array([0.6, -0.5, -0.9]), np.array([0.6, -0.5, -0.2]), 0.03)
+    arm = Capsule(np.array([0.8, -0.3, 0.1]), np.array([0.9, -0.1, 0.3]), 0.05)
+    obj = Box(np.array([0.7, -0.3, -0.15]), np.array([0.76, -0.24, -0.05]))
+    whole = renderer.render([leg, arm], [table, obj], floor_z_m=-0.93)
+    static = renderer.render([leg], [table], floor_z_m=-0.93)
+    moving = renderer.render([arm], [obj], background=static)
+    np.testing.assert_array_equal(moving, whole)
+    assert np.isfinite(whole).mean() > 0.5 and not np.array_equal(moving, static)
+    with pytest.raises(ValueError, match="background"):
+        renderer.render([arm], background=static[:10])
+
+
 def test_depth_is_quantised_like_a_kinect_v1():
     depth = np.full((2, 2), 2.0)
     mm = kinect_depth_mm(depth, None)
