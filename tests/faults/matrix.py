@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import time
@@ -64,6 +65,13 @@ def plan_for(service: str, phase: str, fault: str) -> FaultPlan:
     return FaultPlan("flood", service, phase, topic=topic, duration_s=FLOOD_S, rate_hz=FLOOD_HZ)
 
 
+def write_atomic(path: Path, text: str) -> None:
+    """Replace `path` with `text` in one step (a crash mid-write leaves the old file whole)."""
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+
+
 def current_commit() -> str:
     """The short hash of the checkout the runs start (with ``+dirty`` for local changes)."""
     repo = OUT.parents[1]
@@ -88,6 +96,22 @@ def round_robin(cells: list[tuple[str, str, str]], done: dict[str, int], runs: i
                 order.append(c)
                 have[c] += 1
     return order
+
+
+def progress(results: dict, cells: list[tuple[str, str, str]], runs: int) -> str:
+    """One line: how far the campaign over `cells` at `runs` per cell is, and the time left
+    at the mean wall time of the runs so far."""
+    todo = round_robin(cells, {k: len(c["runs"]) for k, c in results.items()}, runs)
+    wanted = len(cells) * runs
+    walls = [r["wall_s"] for c in results.values() for r in c["runs"] if "wall_s" in r]
+    full = sum(1 for c in cells if len(results.get("/".join(c), {"runs": []})["runs"]) >= runs)
+    least = min((len(results.get("/".join(c), {"runs": []})["runs"]) for c in cells), default=0)
+    line = (f"{wanted - len(todo)} of {wanted} runs done ({100.0 * (wanted - len(todo)) / max(wanted, 1):.0f} %); "
+            f"{full} of {len(cells)} cells have {runs} runs, every cell at least {least}")
+    if todo and walls:
+        mean_s = float(np.mean(walls))
+        line += f"; {len(todo)} to go, about {len(todo) * mean_s / 3600.0:.1f} h at {mean_s:.1f} s a run"
+    return line
 
 
 def _pct(values: list[float], q: float) -> str:
@@ -162,7 +186,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--faults-subset", default=",".join(FAULTS), help="comma-separated: " + ",".join(FAULTS))
     parser.add_argument("--budget-s", type=float, default=float("inf"), help="stop starting runs after this long")
     parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--status", action="store_true", help="print the campaign's progress and exit (runs nothing)")
     args = parser.parse_args(argv)
+    if args.runs < 0:
+        print(f"matrix: --runs must be >= 0, got {args.runs}", file=sys.stderr)
+        return 2
     chosen = [s.split(",") for s in (args.services, args.phases, args.faults_subset)]
     for got, allowed, what in zip(chosen, (SERVICES, PHASES, FAULTS), ("service", "phase", "fault"), strict=True):
         bad = [g for g in got if g not in allowed]
@@ -171,10 +199,17 @@ def main(argv: list[str] | None = None) -> int:
             return 2
     args.out.mkdir(parents=True, exist_ok=True)
     json_path, md_path = args.out / "matrix.json", args.out / "matrix.md"
-    results = json.loads(json_path.read_text()) if json_path.exists() else {}
+    try:
+        results = json.loads(json_path.read_text()) if json_path.exists() else {}
+    except (OSError, ValueError) as exc:
+        print(f"matrix: cannot read {json_path} ({exc}); move it away to start a new campaign", file=sys.stderr)
+        return 2
+    cells = [(s, p, f) for s in chosen[0] for p in chosen[1] for f in chosen[2]]
+    if args.status:
+        print(f"matrix ({json_path}): {progress(results, cells, args.runs)}")
+        return 0
     started = time.monotonic()
     commit = current_commit()
-    cells = [(s, p, f) for s in chosen[0] for p in chosen[1] for f in chosen[2]]
     todo = round_robin(cells, {k: len(c["runs"]) for k, c in results.items()}, args.runs)
     print(f"matrix: {len(todo)} runs to do over {len(cells)} cells on commit {commit}", flush=True)
     for n_done, (service, phase, fault) in enumerate(todo):
@@ -201,9 +236,10 @@ def main(argv: list[str] | None = None) -> int:
         cell["runs"].append(run)
         print(f"[{n_done + 1}/{len(todo)}] {key} run {len(cell['runs'])}: {run['outcome']} "
               f"exit {run['exit_code']} violations {len(run['violations'])} ({run['wall_s']:.0f} s)", flush=True)
-        json_path.write_text(json.dumps(results, indent=1))
-        md_path.write_text(render(results))
-    md_path.write_text(render(results))
+        write_atomic(json_path, json.dumps(results, indent=1))
+        write_atomic(md_path, render(results))
+    write_atomic(md_path, render(results))
+    print(f"matrix: {progress(results, cells, args.runs)}")
     return 0
 
 

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from tests.faults.matrix import plan_for, render, round_robin, summary
+import json
+
+from tests.faults.matrix import main, plan_for, progress, render, round_robin, summary
 
 CELLS = [("motion", "reach", "kill"), ("motion", "reach", "flood"), ("bridge", "transfer", "freeze")]
 
@@ -59,3 +61,24 @@ def test_summary_grid_and_latencies_per_fault():
     kill = next(line for line in lines if line.startswith("| kill |"))
     assert kill == "| kill | 3 | protective_stop 1, released 2 | 30 / 40, 3 | – / –, 0 |"
     assert next(line for line in lines if line.startswith("| flood |")).endswith("| – / –, 0 | – / –, 0 |")
+
+
+def test_progress_and_status(tmp_path, capsys):
+    results = {"motion/reach/kill": {"cell": ["motion", "reach", "kill"], "runs": [_run(0), _run(1)]},
+               "motion/reach/flood": {"cell": ["motion", "reach", "flood"], "runs": [_run(0)]}}
+    for r in results["motion/reach/kill"]["runs"]:
+        r["wall_s"] = 10.0
+    results["motion/reach/flood"]["runs"][0]["wall_s"] = 16.0
+    line = progress(results, CELLS, runs=2)
+    # 6 runs wanted, 3 done; 1 of 3 cells full; bridge/transfer/freeze has none; 3 × 12 s left
+    assert line == ("3 of 6 runs done (50 %); 1 of 3 cells have 2 runs, every cell at least 0; "
+                    "3 to go, about 0.0 h at 12.0 s a run")
+    (tmp_path / "matrix.json").write_text(json.dumps(results))
+    assert main(["--status", "--runs", "2", "--services", "motion", "--phases", "reach",
+                 "--faults-subset", "kill,flood", "--out", str(tmp_path)]) == 0
+    assert "3 of 4 runs done (75 %); 1 of 2 cells have 2 runs, every cell at least 1" in capsys.readouterr().out
+    assert main(["--status", "--services", "nobody", "--out", str(tmp_path)]) == 2
+    assert "unknown service nobody" in capsys.readouterr().err
+    (tmp_path / "matrix.json").write_text("{not json")
+    assert main(["--status", "--out", str(tmp_path)]) == 2
+    assert "cannot read" in capsys.readouterr().err
