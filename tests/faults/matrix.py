@@ -13,7 +13,9 @@ or drop that silences a stream may end in a named protective stop). Results accu
 interrupted campaign resumes) and the table is rewritten to ``out/faults/matrix.md`` after
 every run. Cells are filled round by round (every chosen cell gets its 1st run, then its 2nd,
 ...), so a campaign stopped by its budget leaves an even table rather than a few full cells.
-Each run records the commit it ran on and its wall time.
+Each run records the commit it ran on and its wall time; the launcher output of a run that
+broke an invariant (or that the harness could not finish) is kept in
+``out/faults/matrix_logs/<service>-<phase>-<fault>-<seed>.log`` for diagnosis.
 
 Per service, delay/drop/flood hit the topic it publishes that the handover depends on most
 (`SERVICE_TOPIC`); delay 0.3 s (twice the 0.15 s stream time-out), drop p = 0.5, flood
@@ -221,8 +223,9 @@ def main(argv: list[str] | None = None) -> int:
         plan = plan_for(service, phase, fault)
         seed = len(cell["runs"])
         run_started = time.monotonic()
+        log_path = args.out / "matrix_logs" / f"{service}-{phase}-{fault}-{seed}.log"
         try:
-            rec = run_with_faults([plan], receiver="taking", seed=seed)
+            rec = run_with_faults([plan], receiver="taking", seed=seed, log_path=log_path)
         except Exception as exc:  # a harness failure is recorded, the campaign goes on
             run = {"seed": seed, "violations": [f"harness: {exc}"], "outcome": "error", "missed": False,
                    "detection_s": None, "stop_s": None, "exit_code": None, "exit_line": ""}
@@ -233,6 +236,10 @@ def main(argv: list[str] | None = None) -> int:
                    "detection_s": v.detection_s.get(plan.label), "stop_s": v.stop_s.get(plan.label)}
         run["commit"] = commit
         run["wall_s"] = round(time.monotonic() - run_started, 2)
+        if run["violations"]:
+            run["log"] = str(log_path.relative_to(args.out))
+        else:
+            log_path.unlink(missing_ok=True)  # only the runs worth a look keep their output
         cell["runs"].append(run)
         print(f"[{n_done + 1}/{len(todo)}] {key} run {len(cell['runs'])}: {run['outcome']} "
               f"exit {run['exit_code']} violations {len(run['violations'])} ({run['wall_s']:.0f} s)", flush=True)

@@ -82,3 +82,35 @@ def test_progress_and_status(tmp_path, capsys):
     (tmp_path / "matrix.json").write_text("{not json")
     assert main(["--status", "--out", str(tmp_path)]) == 2
     assert "cannot read" in capsys.readouterr().err
+
+
+def test_campaign_keeps_the_logs_of_runs_with_violations_only(tmp_path, monkeypatch, capsys):
+    """The bookkeeping of `main` (the stack runs are stood in for: this is about the files)."""
+    from types import SimpleNamespace
+
+    from tests.faults import matrix
+
+    def fake_run(plans, receiver, seed, log_path):
+        log_path.parent.mkdir(parents=True, exist_ok=True)
+        log_path.write_text(f"[launcher] run of {plans[0].label}\n")
+        return SimpleNamespace(phases_missed=[], plan=plans[0])
+
+    def fake_judge(rec, strict_exit):
+        bad = rec.plan.kind == "flood"
+        return SimpleNamespace(violations=["arm moved"] if bad else [], outcome="released", exit_code=0,
+                               exit_line="[launcher] exit 0", detection_s={}, stop_s={})
+
+    monkeypatch.setattr(matrix, "run_with_faults", fake_run)
+    monkeypatch.setattr(matrix, "judge", fake_judge)
+    args = ["--runs", "1", "--services", "motion", "--phases", "reach", "--faults-subset", "kill,flood",
+            "--out", str(tmp_path)]
+    assert main(args) == 0
+    results = json.loads((tmp_path / "matrix.json").read_text())
+    flood, kill = results["motion/reach/flood"]["runs"][0], results["motion/reach/kill"]["runs"][0]
+    assert flood["log"] == "matrix_logs/motion-reach-flood-0.log" and "log" not in kill
+    assert (tmp_path / flood["log"]).read_text().startswith("[launcher] run of flood")
+    assert not (tmp_path / "matrix_logs" / "motion-reach-kill-0.log").exists()
+    assert flood["commit"] and flood["wall_s"] >= 0.0
+    assert "1 runs with an invariant violation" in (tmp_path / "matrix.md").read_text()
+    assert main(args) == 0  # resumed: nothing left to do
+    assert "0 runs to do" in capsys.readouterr().out
