@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -210,10 +211,42 @@ def main(argv: list[str] | None = None) -> int:
     if args.status:
         print(f"matrix ({json_path}): {progress(results, cells, args.runs)}")
         return 0
-    started = time.monotonic()
     commit = current_commit()
     todo = round_robin(cells, {k: len(c["runs"]) for k, c in results.items()}, args.runs)
     print(f"matrix: {len(todo)} runs to do over {len(cells)} cells on commit {commit}", flush=True)
+    try:
+        with _interruptible():
+            _campaign(args, results, todo, commit, json_path, md_path)
+    except KeyboardInterrupt:
+        print("matrix: interrupted; the run in progress is not recorded, the others are: run again to resume",
+              file=sys.stderr)
+        write_atomic(md_path, render(results))
+        return 130
+    write_atomic(md_path, render(results))
+    print(f"matrix: {progress(results, cells, args.runs)}")
+    return 0
+
+
+class _interruptible:
+    """SIGINT and SIGTERM raise KeyboardInterrupt inside the block (also when the campaign was
+    started in the background, where SIGINT is ignored), so the harness's clean-up runs: the
+    stack of the run in progress is shut down, no process is left behind."""
+
+    def __enter__(self) -> None:
+        def interrupt(signum: int, _frame: object) -> None:
+            raise KeyboardInterrupt(signal.Signals(signum).name)
+
+        self._previous = {s: signal.signal(s, interrupt) for s in (signal.SIGINT, signal.SIGTERM)}
+
+    def __exit__(self, *exc: object) -> None:
+        for s, handler in self._previous.items():
+            signal.signal(s, handler)
+
+
+def _campaign(args: argparse.Namespace, results: dict, todo: list[tuple[str, str, str]], commit: str,
+              json_path: Path, md_path: Path) -> None:
+    """Run `todo` in order, recording each run in `results` and the two files (see `main`)."""
+    started = time.monotonic()
     for n_done, (service, phase, fault) in enumerate(todo):
         if time.monotonic() - started > args.budget_s:
             print(f"matrix: budget of {args.budget_s:.0f} s used up after {n_done} runs; run again to resume")
@@ -245,9 +278,6 @@ def main(argv: list[str] | None = None) -> int:
               f"exit {run['exit_code']} violations {len(run['violations'])} ({run['wall_s']:.0f} s)", flush=True)
         write_atomic(json_path, json.dumps(results, indent=1))
         write_atomic(md_path, render(results))
-    write_atomic(md_path, render(results))
-    print(f"matrix: {progress(results, cells, args.runs)}")
-    return 0
 
 
 if __name__ == "__main__":

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 
 from tests.faults.matrix import main, plan_for, progress, render, round_robin, summary
 
@@ -114,3 +115,31 @@ def test_campaign_keeps_the_logs_of_runs_with_violations_only(tmp_path, monkeypa
     assert "1 runs with an invariant violation" in (tmp_path / "matrix.md").read_text()
     assert main(args) == 0  # resumed: nothing left to do
     assert "0 runs to do" in capsys.readouterr().out
+
+
+def test_campaign_interrupted_keeps_the_runs_before(tmp_path, monkeypatch, capsys):
+    import os
+    import signal
+    from types import SimpleNamespace
+
+    from tests.faults import matrix
+
+    calls = []
+
+    def fake_run(plans, receiver, seed, log_path):
+        calls.append(plans[0].label)
+        if len(calls) == 2:
+            os.kill(os.getpid(), signal.SIGTERM)  # as `kill <pid>` on a background campaign
+            time.sleep(1.0)
+        return SimpleNamespace(phases_missed=[])
+
+    monkeypatch.setattr(matrix, "run_with_faults", fake_run)
+    monkeypatch.setattr(matrix, "judge", lambda rec, strict_exit: SimpleNamespace(
+        violations=[], outcome="released", exit_code=0, exit_line="", detection_s={}, stop_s={}))
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["--runs", "1", "--services", "motion", "--phases", "reach", "--faults-subset", "kill,flood,drop",
+                 "--out", str(tmp_path)]) == 130
+    assert signal.getsignal(signal.SIGTERM) is before  # handlers restored
+    assert "interrupted" in capsys.readouterr().err
+    results = json.loads((tmp_path / "matrix.json").read_text())
+    assert [k for k, c in results.items() if c["runs"]] == ["motion/reach/kill"]
