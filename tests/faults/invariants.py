@@ -10,7 +10,10 @@ Invariants (issue 8, "Must show"):
 2. **no motion after a stop**: after a protective stop, once the arm is at rest
    (all |v| < `REST_SPEED_RAD_S`), no joint state shows a speed above `MOVE_SPEED_RAD_S`
    until the end of the run; after the release stop the same holds until the supervisor
-   sends the retract goal (the retract after the release dwell is allowed).
+   sends the retract goal (the retract after the release dwell is allowed). An arm that
+   never comes to rest breaks it too: joint states still coming `REST_DEADLINE_S` after the
+   stop without the arm having settled (no joint states at all, e.g. the bridge killed, is
+   no evidence either way).
 3. **reported**: a lost or frozen service is named in the episode summary (faults or
    reason) or in the launcher's exit line.
 4. **clear exit**: a critical service's fault ends `handover-up` with exit 1 and a reason on
@@ -28,6 +31,9 @@ from typing import Any
 REST_SPEED_RAD_S = 0.01
 #: After the arm came to rest under a stop, a joint faster than this is a violation.
 MOVE_SPEED_RAD_S = 0.02
+#: After a stop, joint states this long after it with the arm never at rest are a violation
+#: (braking from the arm's top speed takes about 50 ms; the margin covers a starved bridge).
+REST_DEADLINE_S = 0.5
 #: Services whose loss the supervisor only reports (deploy/sim.toml `watch`).
 REPORT_ONLY = frozenset({"recorder"})
 SERVICE_KINDS = ("kill", "freeze")
@@ -170,6 +176,21 @@ def motion_between(joints: list[tuple[float, Any]], start_s: float, end_s: float
     return worst
 
 
+def never_settled(joints: list[tuple[float, Any]], stop_s: float, until_s: float) -> str | None:
+    """Why the arm counts as never at rest after a stop at `stop_s` (None: no evidence):
+    joint states in [stop_s + `REST_DEADLINE_S`, `until_s`) came and none of the states after
+    the stop began `REST_SAMPLES` at rest before `until_s`."""
+    late = [(t, m) for t, m in joints if stop_s + REST_DEADLINE_S <= t < until_s]
+    if not late:
+        return None
+    rest = first_rest_after(joints, stop_s)
+    if rest is not None and rest < until_s:
+        return None
+    t, msg = late[-1]
+    return (f"{len(late)} joint states {REST_DEADLINE_S:.1f} s or more after the stop, the last at t={t:.3f} "
+            f"moving at {_max_speed(msg):.3f} rad/s (sender clock)")
+
+
 _LOG_STAMP = re.compile(r"^\[(?P<name>[a-z_]+)\s*\] (?P<h>\d\d):(?P<m>\d\d):(?P<s>\d\d\.\d+) ")
 
 
@@ -254,17 +275,25 @@ def judge(rec: RunRecord, strict_exit: bool = True) -> Verdict:
             if moved:
                 violations.append(f"arm moved after the protective stop: {moved[1]:.3f} rad/s at "
                                   f"t={moved[0]:.3f} (at rest since {rest:.3f}, sender clock)")
+        else:
+            unsettled = never_settled(joints, t_prot, end_s)
+            if unsettled:
+                violations.append(f"arm never came to rest after the protective stop: {unsettled}")
     release_stops = [stamp_s(m) for _t, m in rec.stops if not m.protective and m.reason == "release"]
     if release_stops:
         t_rel = release_stops[0]
         retract_goals = [stamp_s(g) for _t, g in rec.goals if stamp_s(g) >= t_rel and g.kind == "retract"]
         until = retract_goals[0] if retract_goals else end_s
         rest = first_rest_after(joints, t_rel)
-        if rest is not None:
+        if rest is not None and rest < until:
             moved = motion_between(joints, rest, until)
             if moved:
                 violations.append(f"arm moved after the release stop before the retract: {moved[1]:.3f} rad/s "
                                   f"at t={moved[0]:.3f} (sender clock)")
+        else:
+            unsettled = never_settled(joints, t_rel, until)
+            if unsettled:
+                violations.append(f"arm did not come to rest after the release stop: {unsettled}")
 
     # 3./4. reported, clear exit; latencies
     for inj in rec.injections:

@@ -85,3 +85,24 @@ def test_an_armed_fault_acts_only_while_its_file_exists(tmp_path, monkeypatch):
     put._armed_checked_s = -1.0
     put(b"c")
     assert sent == [b"a", b"c"]
+
+
+def test_an_arm_that_never_comes_to_rest_after_a_stop_is_caught():
+    # Protective stop at 1.0 s; the arm keeps moving at 0.3 rad/s to the end (1.5 s of states).
+    v = judge(record([0.5] * 100 + [0.3] * 150))
+    assert any("never came to rest after the protective stop" in x and "moving at 0.300" in x
+               for x in v.violations), v.violations
+    # No joint states after the stop at all (the bridge gone): no evidence, no violation.
+    assert judge(record([0.5] * 100)).ok
+    # Slow braking that settles within the run is fine.
+    assert judge(record([0.5] * 100 + [0.3] * 30 + [0.0] * 50)).ok
+
+
+def test_a_release_stop_that_never_settles_before_the_retract_is_caught():
+    rec = record([0.4] * 100 + [0.2] * 100)
+    rec.injections, rec.exit_code = [], 0
+    rec.stops = [(1.0, MotionStop(**at(1.0), reason="release"))]
+    rec.goals = [(1.8, MotionGoal(**at(1.8), goal_id="r", kind="retract"))]
+    assert any("did not come to rest after the release stop" in x for x in judge(rec).violations)
+    rec.goals = [(1.3, MotionGoal(**at(1.3), goal_id="r", kind="retract"))]  # retract before the deadline
+    assert judge(rec).ok, judge(rec).violations
