@@ -56,6 +56,11 @@ class Backend(Protocol):
     def step(self, dt_s: float) -> None:
         """Advance the robot by `dt_s` (simulation) or poll it (hardware)."""
 
+    def catch_up(self, gap_s: float) -> None:
+        """The bridge's loop did not run for `gap_s` seconds (starved of CPU or frozen): bring
+        the robot to now as it would have gone on meanwhile, before this tick's commands
+        (hardware: nothing to do, the robot lived through the gap)."""
+
     def command(self, target_rad: np.ndarray, feedforward_rad_s: np.ndarray | None = None) -> None:
         """Servo toward `target_rad` (validated and inside limits) moving at `feedforward_rad_s`."""
 
@@ -81,14 +86,28 @@ class SimBackend:
     name = "sim"
 
     def __init__(self, time_constant_s: float = 0.05,
-                 initial_position_rad: np.ndarray | None = None) -> None:
+                 initial_position_rad: np.ndarray | None = None,
+                 robot_command_timeout_s: float = 0.2) -> None:
         self.joint_names = RIGHT_ARM_JOINTS
         self.limits = arm_model().limits
         self.arm = SimulatedArm(time_constant_s, self.limits, initial_position_rad)
+        self.robot_command_timeout_s = float(robot_command_timeout_s)
         self._holding_target: np.ndarray | None = None
 
     def step(self, dt_s: float) -> None:
         self.arm.step(dt_s)
+
+    def catch_up(self, gap_s: float) -> None:
+        """The simulated robot did not stop when the bridge stalled: like Baxter's own
+        controller it goes on with the last command for up to `robot_command_timeout_s`, then
+        holds for the rest of the gap (the scene, if any, advances with it)."""
+        if gap_s <= 0.0:
+            return
+        going_on_s = min(gap_s, self.robot_command_timeout_s)
+        self.step(going_on_s)
+        if gap_s > going_on_s:
+            self.hold()
+            self.step(gap_s - going_on_s)
 
     def command(self, target_rad: np.ndarray, feedforward_rad_s: np.ndarray | None = None) -> None:
         self._holding_target = None
@@ -120,7 +139,8 @@ class SimBackend:
 
 def _sim_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
     """The keyword arguments a simulated arm takes (the hardware-only ones dropped)."""
-    return {k: kwargs[k] for k in ("time_constant_s", "initial_position_rad") if k in kwargs}
+    return {k: kwargs[k] for k in ("time_constant_s", "initial_position_rad", "robot_command_timeout_s")
+            if k in kwargs}
 
 
 def make_backend(name: str, contact: Any = None, **kwargs: Any) -> Backend:

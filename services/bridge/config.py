@@ -63,6 +63,11 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
         command_timeout_s: hold the arm when no fresh joint command arrived for this long, s
             (Baxter's own time-out is 0.2 s).
         servo_time_constant_s: first-order lag of the simulated joint servo, s.
+        sim_robot_command_timeout_s: the simulated robot's own joint-command time-out, s: when
+            the bridge's loop stalls (starved of CPU, frozen) for longer than two periods, the
+            simulated arm goes on with its last command this long and then holds, as Baxter's
+            controller does (its ``joint_command_timeout``, 0.2 s), instead of freezing with
+            the bridge.
         limit_tolerance_rad: how far outside a joint limit a command may be before it is
             rejected (rounding), rad.
         stop_deceleration_rad_s2: on `motion/stop` the bridge brakes every joint with this
@@ -81,6 +86,7 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
     rate_hz: Annotated[float, Meta(ge=1.0, le=1000.0)] = 100.0
     command_timeout_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.2
     servo_time_constant_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.05
+    sim_robot_command_timeout_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.2
     limit_tolerance_rad: Annotated[float, Meta(ge=0.0, le=0.1)] = 1e-3
     stop_deceleration_rad_s2: Annotated[float, Meta(gt=0.0, le=1000.0)] = 40.0
     initial_position_rad: Annotated[list[Annotated[float, Meta(ge=-10.0, le=10.0)]], Meta(max_length=7)] = []

@@ -47,10 +47,11 @@ class ContactSimBackend(SimBackend):
     name = "sim"
 
     def __init__(self, *, time_constant_s: float = 0.05, initial_position_rad: np.ndarray | None = None,
+                 robot_command_timeout_s: float = 0.2,
                  behaviour: str = "taking", pull_angle_deg: float = 0.0, object_mass_kg: float = 0.2,
                  mu_static: float = 0.6, mu_kinetic: float = 0.5, initial_grip_force_n: float = 10.0,
                  seed: int = 0, receiver: dict[str, Any] | None = None) -> None:
-        super().__init__(time_constant_s, initial_position_rad)
+        super().__init__(time_constant_s, initial_position_rad, robot_command_timeout_s)
         try:
             obj = ObjectParams(mass_kg=object_mass_kg, mu_static=mu_static, mu_kinetic=mu_kinetic)
             config = SimConfig(obj=obj)

@@ -45,8 +45,9 @@ class HandoverSimBackend(SimBackend):
     name = "sim"
 
     def __init__(self, scene_params: SceneParams, *, time_constant_s: float = 0.05,
-                 initial_position_rad: np.ndarray | None = None) -> None:
-        super().__init__(time_constant_s, initial_position_rad)
+                 initial_position_rad: np.ndarray | None = None,
+                 robot_command_timeout_s: float = 0.2) -> None:
+        super().__init__(time_constant_s, initial_position_rad, robot_command_timeout_s)
         try:
             self.scene = HandoverScene(scene_params)
         except ContactSimError as exc:

@@ -32,6 +32,8 @@ from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 log = logging.getLogger(__name__)
 
 SERVICE_NAME = "bridge"
+#: A tick later than this many periods is a stall the backend catches up on (`Backend.catch_up`).
+STALL_PERIODS = 2.0
 
 
 def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None = None) -> int:
@@ -39,7 +41,8 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
     initial = np.array(config.initial_position_rad) if config.initial_position_rad else None
     backend = backend or make_backend(
         config.backend, contact=config.contact, time_constant_s=config.servo_time_constant_s,
-        initial_position_rad=initial, profile=profile, baxter=config.baxter,
+        initial_position_rad=initial, robot_command_timeout_s=config.sim_robot_command_timeout_s,
+        profile=profile, baxter=config.baxter,
     )
     gate = CommandGate(backend.joint_names, backend.limits, config.command_timeout_s,
                        config.limit_tolerance_rad)
@@ -79,6 +82,11 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
             for _urgent in ticker:
                 now_s = time.monotonic()
                 dt_s, last_s = now_s - last_s, now_s
+                if dt_s > STALL_PERIODS * ticker.period_s:
+                    # The loop stalled: the robot did not wait for it. Live through the gap
+                    # under the old command before this tick's stops and commands act.
+                    backend.catch_up(dt_s - ticker.period_s)
+                    dt_s = ticker.period_s
                 measured = backend.read()
                 current = measured.position_rad
                 new_stops = stops.drain()

@@ -98,3 +98,35 @@ def test_rejects_unknown_joint_and_out_of_limit_without_motion(bridge, make_node
     log = bridge.log_text()
     assert "unknown joint 'left_s0'" in log
     assert log.count("joint command rejected") <= 3  # rate-limited, not 60 lines
+
+
+def test_a_frozen_bridge_lets_the_arm_go_on_only_for_the_robots_own_timeout(bridge, make_node):
+    """SIGSTOP the bridge for 0.6 s while the arm moves: like Baxter's controller, the
+    simulated arm goes on with the last command for 0.2 s (`sim_robot_command_timeout_s`),
+    then holds, instead of standing still for the freeze or running the whole 0.6 s."""
+    import os
+    import signal
+
+    node = make_node()
+    states = node.subscribe(topics.JOINT_STATE, queue_size=5000)
+    cmd = node.publisher(topics.JOINT_COMMAND)
+    assert wait_until(lambda: states.latest() is not None, 5.0)
+    far = HOME.copy()
+    far[0] += 1.2
+    _stream(cmd, far, 0.25)  # moving at the joint's speed limit by now
+    os.kill(bridge.pid, signal.SIGSTOP)
+    try:
+        _stream(cmd, far, 0.6)  # commands keep coming (queued, fresh when it wakes)
+    finally:
+        os.kill(bridge.pid, signal.SIGCONT)
+    _stream(cmd, far, 0.1)
+    time.sleep(0.1)
+    got = sorted((r.msg for r in states.drain()), key=lambda m: m.seq)
+    gaps = [(a, b) for a, b in zip(got, got[1:], strict=False) if b.stamp_ns - a.stamp_ns > 0.4e9]
+    assert len(gaps) == 1, "expected one gap in the joint states: the freeze"
+    before, after = gaps[0]
+    speed = abs(before.velocity_rad_s[0])
+    assert speed > 0.5, f"the arm should be moving when frozen ({speed:.2f} rad/s)"
+    moved = after.position_rad[0] - before.position_rad[0]
+    # 0.2 s at the speed it had (plus the tick that follows the thaw); 0.6 s would be ~3x more.
+    assert 0.15 * speed < moved < 0.3 * speed, (moved, speed)

@@ -283,6 +283,11 @@ class BaxterBackend:
         if problem and not self.dry_run:
             raise BaxterLostError(f"robot no longer commandable: {problem}")
 
+    def catch_up(self, gap_s: float) -> None:
+        """Nothing to simulate: the robot lived through the stall, under its own command
+        time-out (``robot_command_timeout_s``)."""
+        return None
+
     def command(self, target_rad: np.ndarray, feedforward_rad_s: np.ndarray | None = None) -> None:
         """Send a position command (Baxter's position mode has no velocity feed-forward)."""
         self._hold_rad = None
