@@ -1,8 +1,11 @@
 """Safety invariants and latencies of one fault run, computed from what the test recorded.
 
 Pure functions over a `RunRecord` (no I/O), so they are unit-tested on hand-made records.
-All times are the test process's monotonic clock (s) at receive time, except the launcher's
-log lines, whose wall-clock stamps are converted with the fault's wall/monotonic pair.
+Times are the test process's monotonic clock (s). The latencies and the motion checks use the
+senders' stamps (the bus header's wall clock of this one host), converted with the fault's
+wall/monotonic pair, not when this process happened to receive a message: starved of CPU it
+can receive late, and that is not the stack's delay. The launcher's log lines carry no stamp
+and count at receive time.
 
 Invariants (issue 8, "Must show"):
 
@@ -207,13 +210,20 @@ def log_time_to_monotonic(line: str, ref_wall_s: float, ref_mono_s: float) -> fl
     return ref_mono_s + (wall - ref_wall_s)
 
 
+def sent_at(inj: Injection, msg: Any) -> float:
+    """When `msg` was sent by its stamp, on the test's monotonic clock (via the injection's
+    wall/monotonic pair)."""
+    return inj.at_s + (stamp_s(msg) - inj.at_wall_s)
+
+
 def detection_time(rec: RunRecord, inj: Injection) -> float | None:
     """When the supervisor noticed the fault (test monotonic s): the first supervisor state
-    after the injection whose reason names the service, or the supervisor's own
+    sent after the injection whose reason names the service, or the supervisor's own
     ``service fault service=<name>`` log line (report-only services change no state)."""
     service = inj.plan.service
     candidates = []
-    for t, msg in rec.states:
+    for _stamp, msg in by_stamp(rec.states):
+        t = sent_at(inj, msg)
         if t >= inj.at_s and service in msg.reason and (msg.phase == "protective_stop" or "silent" in msg.reason
                                                          or "lost" in msg.reason):
             candidates.append(t)
@@ -231,9 +241,11 @@ def detection_time(rec: RunRecord, inj: Injection) -> float | None:
     return min(candidates) if candidates else None
 
 
-def first_protective_stop(rec: RunRecord, after_s: float) -> float | None:
-    for t, msg in rec.stops:
-        if t >= after_s and msg.protective:
+def first_protective_stop(rec: RunRecord, inj: Injection) -> float | None:
+    """When the first protective stop after the injection was sent (test monotonic s)."""
+    for _stamp, msg in by_stamp(rec.stops):
+        t = sent_at(inj, msg)
+        if t >= inj.at_s and msg.protective:
             return t
     return None
 
@@ -313,11 +325,12 @@ def judge(rec: RunRecord, strict_exit: bool = True) -> Verdict:
                     violations.append(f"{plan.label}: launcher exit {rec.exit_code}, expected 1")
                 elif plan.service not in rec.exit_line and "protective" not in rec.exit_line:
                     violations.append(f"{plan.label}: exit line gives no clear reason: {rec.exit_line!r}")
-                t_stop = first_protective_stop(rec, inj.at_s)
+                t_stop = first_protective_stop(rec, inj)
                 if t_stop is None and plan.service != "supervisor":
                     violations.append(f"{plan.label}: no protective motion/stop after the fault")
                 if t_stop is not None:
-                    rest = first_rest_after(rec.joints, t_stop)
+                    sent_joints = sorted(((sent_at(inj, m), m) for _t, m in rec.joints), key=lambda p: p[0])
+                    rest = first_rest_after(sent_joints, t_stop)
                     if rest is not None:
                         stop[plan.label] = max(t_stop, rest) - inj.at_s
     critical = [i for i in rec.injections if i.plan.critical]

@@ -20,7 +20,7 @@ def js(v, t_s=0.0):
 
 def record(speeds, stop_at=1.0, exit_code=1, service="motion", dropped_at=None):
     rec = RunRecord(receiver="absent")
-    rec.injections = [Injection(FaultPlan("kill", service), at_s=0.9, at_wall_s=1000.0, phase_seen_s=0.5)]
+    rec.injections = [Injection(FaultPlan("kill", service), at_s=0.9, at_wall_s=0.9, phase_seen_s=0.5)]
     rec.joints = [(0.01 * i, js(v, 0.01 * i)) for i, v in enumerate(speeds)]
     rec.truth = [(0.01 * i, SimTruth(**H, dropped=dropped_at is not None and 0.01 * i >= dropped_at))
                  for i in range(len(speeds))]
@@ -106,3 +106,24 @@ def test_a_release_stop_that_never_settles_before_the_retract_is_caught():
     assert any("did not come to rest after the release stop" in x for x in judge(rec).violations)
     rec.goals = [(1.3, MotionGoal(**at(1.3), goal_id="r", kind="retract"))]  # retract before the deadline
     assert judge(rec).ok, judge(rec).violations
+
+
+def test_latencies_come_from_the_senders_stamps_not_a_late_observer():
+    """The observer received everything 0.8 s late (starved of CPU): the stop latency is the
+    stack's, by the stamps, and the stamps' clock (wall) is mapped onto the test's."""
+    speeds = [0.5] * 100 + [0.2, 0.05, 0.0] + [0.0] * 50  # braking ends at sender time 1.02 s
+    rec = record(speeds)
+    rec.joints = [(t + 0.8, m) for t, m in rec.joints]
+    rec.stops = [(t + 0.8, m) for t, m in rec.stops]
+    v = judge(rec)
+    assert v.ok, v.violations
+    assert abs(v.stop_s["kill motion @ transfer"] - 0.12) < 1e-9
+    # The same run with a wall clock 1000 s ahead of the monotonic one: same latencies.
+    shift = 1000.0
+    rec2 = record(speeds)
+    rec2.injections[0].at_wall_s += shift
+    for name in ("joints", "stops"):
+        setattr(rec2, name, [(t, type(m)(**{**{f: getattr(m, f) for f in m.__struct_fields__},
+                                            "stamp_ns": m.stamp_ns + int(shift * 1e9)}))
+                             for t, m in getattr(rec2, name)])
+    assert abs(judge(rec2).stop_s["kill motion @ transfer"] - 0.12) < 1e-6
