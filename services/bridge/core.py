@@ -177,8 +177,11 @@ class StopBrake:
     `deceleration_rad_s2 · dt` per tick until zero (a joint at 1 rad/s stops in 25 ms at
     40 rad/s²). After a stop, joint commands are ignored unless they belong to a goal the
     supervisor sent *after* the stop (`goal_after_stop`, from `motion/goal`): a goal sent just
-    before the stop, whose commands arrive after it, cannot move the arm again. A protective
-    stop is latched for the rest of the episode: no goal ends it, only `new_episode`.
+    before the stop, whose commands arrive after it, cannot move the arm again. "After" is by
+    the senders' stamps when the goal and the stop come from the same source (a goal delayed
+    on the bus, or a copy the supervisor sent before the stop, arrives after it but was sent
+    before it), else by arrival. A protective stop is latched for the rest of the episode: no
+    goal ends it, only `new_episode`.
 
     Args:
         deceleration_rad_s2: braking deceleration of every joint, rad/s² (> 0).
@@ -192,11 +195,17 @@ class StopBrake:
         self.protective = False
         self.reason = ""
         self.ignored_commands = 0
+        self.stale_goals = 0
         self._goals_after_stop: set[str] = set()
+        self._newest_stop_ns: dict[str, int] = {}
         self._velocity_rad_s: np.ndarray | None = None
 
-    def engage(self, reason: str, velocity_rad_s: np.ndarray, protective: bool = False) -> None:
-        """A stop arrived: brake from the measured joint velocities (rad/s)."""
+    def engage(self, reason: str, velocity_rad_s: np.ndarray, protective: bool = False,
+               source: str = "", stamp_ns: int = 0) -> None:
+        """A stop arrived (from `source`, stamped `stamp_ns`): brake from the measured joint
+        velocities (rad/s)."""
+        if stamp_ns > 0:
+            self._newest_stop_ns[source] = max(stamp_ns, self._newest_stop_ns.get(source, 0))
         if not self.active:
             self._velocity_rad_s = np.nan_to_num(np.asarray(velocity_rad_s, dtype=float)).copy()
         self.active = True
@@ -204,11 +213,15 @@ class StopBrake:
         self.reason = reason
         self._goals_after_stop.clear()
 
-    def goal_after_stop(self, goal_id: str) -> None:
-        """The supervisor sent goal `goal_id` (seen on `motion/goal`); while stopped, only
-        goals sent after the stop may end it."""
-        if self.active and not self.protective:
-            self._goals_after_stop.add(goal_id)
+    def goal_after_stop(self, goal_id: str, source: str = "", stamp_ns: int = 0) -> None:
+        """Goal `goal_id` arrived on `motion/goal` (from `source`, stamped `stamp_ns`); while
+        stopped, only goals sent after the stop may end it."""
+        if not self.active or self.protective:
+            return
+        if stamp_ns > 0 and stamp_ns <= self._newest_stop_ns.get(source, 0):
+            self.stale_goals += 1
+            return  # sent before the stop, arrived after it: not a new goal
+        self._goals_after_stop.add(goal_id)
 
     def new_episode(self) -> None:
         """A new supervisor episode: a protective stop may now be ended by a new goal."""

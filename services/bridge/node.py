@@ -92,17 +92,19 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                 new_stops = stops.drain()
                 if new_stops:
                     handled_stop[0] = new_stops[-1]
-                # Stops and goals in arrival order: a goal counts only if it came after the stop.
+                # Stops and goals in arrival order; a goal ends a stop only if sent after it
+                # (by the stamps when both come from one source, `StopBrake.goal_after_stop`).
                 events = sorted([(rx.rx_monotonic, 0, rx) for rx in new_stops]
                                 + [(rx.rx_monotonic, 1, rx) for rx in goals.drain()], key=lambda e: (e[0], e[1]))
                 for _t, kind, rx in events:
                     if kind == 1:
-                        brake.goal_after_stop(rx.msg.goal_id)
+                        brake.goal_after_stop(rx.msg.goal_id, rx.msg.source, rx.msg.stamp_ns)
                         continue
                     if not brake.active:
                         log.warning("stop: braking", extra=kv(reason=rx.msg.reason, protective=rx.msg.protective,
                                                               source=rx.msg.source))
-                    brake.engage(rx.msg.reason, measured.velocity_rad_s, rx.msg.protective)
+                    brake.engage(rx.msg.reason, measured.velocity_rad_s, rx.msg.protective,
+                                 rx.msg.source, rx.msg.stamp_ns)
                 for rx in supervisor.drain():
                     if episode_id is not None and rx.msg.episode_id != episode_id:
                         brake.new_episode()

@@ -21,7 +21,7 @@ held final (or stopped) position, so the bridge's 200 ms command time-out never 
 service is alive.
 
 Goals and stops that arrive in the same tick: goals are applied first, then stops, so a stop
-always wins.
+always wins. Copies of a goal, and goals sent before a stop, are ignored (`goal_filter`).
 """
 
 from __future__ import annotations
@@ -39,6 +39,7 @@ from bus_schema.messages import MotionGoal, MotionStop
 from robot_sim import baxter
 from services.motion.config import MotionConfig
 from services.motion.errors import GoalRejected, IkError, MotionError, TrajectoryError
+from services.motion.goal_filter import GoalFilter
 from services.motion.ik import UPRIGHT_ROTATION, ArmIk
 from services.motion.paths import (
     CartesianReach,
@@ -146,6 +147,7 @@ class MotionController:
             np.full(n, config.stop_acceleration_rad_s2), np.full(n, config.stop_jerk_rad_s3),
         )
         self._mode = _Mode.IDLE
+        self.goals = GoalFilter()
         self._deferred_goal: MotionGoal | None = None
         self._status = Status("idle")
         self._goal_id = ""
@@ -217,7 +219,15 @@ class MotionController:
             )
             self._measured_at_s = now_s if measured_at_s is None else measured_at_s
         for goal in goals:
-            self._accept_goal(goal, now_s)
+            # Each goal once, never one sent before a stop (`goal_filter`): copies of a goal
+            # and late arrivals must not move the arm again.
+            why = self.goals.reason_to_ignore(goal.source, goal.goal_id, goal.stamp_ns)
+            if why is None:
+                self._accept_goal(goal, now_s)
+            elif why != "a copy of the goal in progress":
+                log.info("goal '%s' ignored: %s", goal.goal_id, why)
+        for stop in stops:
+            self.goals.stop_seen(stop.source, stop.stamp_ns)
         if stops:
             self._apply_stop(stops[-1], now_s)
         self._advance(now_s)

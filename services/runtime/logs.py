@@ -88,6 +88,14 @@ class RateLimitedLog:
         self.counts: dict[str, int] = {}
 
     def warning(self, key: str, message: str, **fields: Any) -> None:
+        self.log(logging.WARNING, key, message, **fields)
+
+    def info(self, key: str, message: str, **fields: Any) -> None:
+        self.log(logging.INFO, key, message, **fields)
+
+    def log(self, level: int, key: str, message: str, **fields: Any) -> None:
+        """Log `message` at `level` unless `key` was logged less than `period_s` ago (then it
+        is counted, and the count goes with the next line that is logged)."""
         now = time.monotonic()
         with self._lock:
             self.counts[key] = self.counts.get(key, 0) + 1
@@ -99,4 +107,4 @@ class RateLimitedLog:
             self._last_logged[key] = now
         if suppressed:
             fields["suppressed"] = suppressed
-        self._logger.warning(message, extra=kv(**fields))
+        self._logger.log(level, message, extra=kv(**fields))

@@ -45,6 +45,9 @@ class SupervisorConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
         rest_speed_rad_s: joint speed below which the arm counts as at rest.
         stop_repeat_s: the stop message is repeated this often until the motion service
             reports ``stopped`` and the arm is at rest (a lost stop is sent again).
+        goal_repeat_s: a motion goal is sent again this often until the motion service
+            reports on it (a lost goal is sent again; the copies keep its ``goal_id``, which
+            the motion service acts on once). Never after a stop.
         human_lost_s: the receiver counts as lost when not tracked (or no human state) for
             this long during the reach; the arm then holds.
         human_return_s: hold this long for the receiver to come back, then abort (retract).
@@ -80,6 +83,7 @@ class SupervisorConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
     release_dwell_s: Annotated[float, Meta(ge=0.0, le=60.0)] = 0.5
     rest_speed_rad_s: Annotated[float, Meta(gt=0.0, le=1.0)] = 0.01
     stop_repeat_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.05
+    goal_repeat_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.1
     human_lost_s: Seconds = 0.5
     human_return_s: Seconds = 3.0
     replan_threshold_m: Annotated[float, Meta(gt=0.0, le=2.0)] = 0.05

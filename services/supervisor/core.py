@@ -121,11 +121,14 @@ class Actions:
     (fields without header), and whether the state changed."""
 
     goal: dict[str, Any] | None = None
+    goal_repeated: bool = False  # `goal` is a copy of one already sent (no report on it yet)
     stop: dict[str, Any] | None = None
     summary: dict[str, Any] | None = None
     state_changed: bool = False
 
     def merge(self, other: Actions) -> Actions:
+        if other.goal:
+            self.goal_repeated = other.goal_repeated
         self.goal = other.goal or self.goal
         self.stop = other.stop or self.stop
         self.summary = other.summary or self.summary
@@ -142,6 +145,11 @@ class _Episode:
     goal_id: str = ""
     goal_count: int = 0
     goal_sent_s: float = 0.0
+    #: The current goal's fields while the motion service has not reported on it (sent
+    #: again every `goal_repeat_s`); None once it has, or after a stop.
+    goal_unacknowledged: dict[str, Any] | None = None
+    goal_repeated_s: float = 0.0
+    goal_repeats: int = 0
     reach_position_m: np.ndarray | None = None
     receiver_posture: str = "unknown"
     replans: int = 0
@@ -201,8 +209,9 @@ class Sequencer:
         assert ep is not None
         ep.goal_count += 1
         ep.goal_id = f"e{ep.episode_id}-{kind}-{ep.goal_count}"
-        ep.goal_sent_s = now_s
+        ep.goal_sent_s = ep.goal_repeated_s = now_s
         actions.goal = {"goal_id": ep.goal_id, "kind": kind, **fields}
+        ep.goal_unacknowledged = dict(actions.goal)
 
     def _step(self, name: str, now_s: float, actions: Actions) -> None:
         ep = self.episode
@@ -228,6 +237,8 @@ class Sequencer:
         return h is not None and h.tracked and snap.now_s - snap.human_rx_s <= fresh_s
 
     def _stop(self, now_s: float, reason: str, protective: bool, actions: Actions) -> None:
+        if self.episode is not None:
+            self.episode.goal_unacknowledged = None  # a goal is never sent again after a stop
         self._stop_reason, self._stop_protective = reason, protective
         self._stop_confirmed = False
         self._last_stop_s = now_s
@@ -352,7 +363,25 @@ class Sequencer:
         actions = self._tick_phase(snap)
         if self.phase in ("released", "protective_stop", "hold") and actions.goal is None:
             self._repeat_stop(snap, actions)  # after the phase's step: never with a new goal
+        elif actions.goal is None and actions.stop is None:
+            self._repeat_goal(snap, actions)
         return actions
+
+    def _repeat_goal(self, snap: Snapshot, actions: Actions) -> None:
+        """Send the current goal again (same `goal_id`) every `goal_repeat_s` until the motion
+        service reports on it: a goal lost on the bus would otherwise leave the episode
+        waiting for a move that never started, until the move's time-out."""
+        ep = self.episode
+        if ep is None or ep.goal_unacknowledged is None or self.phase in ("idle", "done", "failed"):
+            return
+        if self._goal_status(snap) is not None:
+            ep.goal_unacknowledged = None
+            return
+        if snap.now_s - ep.goal_repeated_s >= self.config.goal_repeat_s:
+            ep.goal_repeated_s = snap.now_s
+            ep.goal_repeats += 1
+            actions.goal = dict(ep.goal_unacknowledged)
+            actions.goal_repeated = True
 
     def _tick_phase(self, snap: Snapshot) -> Actions:
         actions = Actions()

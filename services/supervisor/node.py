@@ -14,7 +14,7 @@ import queue
 import time
 from bus_schema import topics
 from robot_sim.baxter import RIGHT_ARM_HOME_RAD
-from services.runtime import Profile, ServiceNode, kv
+from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.runtime.liveliness import LivelinessWatcher
 from services.supervisor.config import SupervisorConfig
 from services.supervisor.core import Actions, Sequencer, Snapshot, TargetFilter
@@ -69,6 +69,7 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
         ready_since: float | None = None
         started_s = time.monotonic()
         last_state_s = -1.0
+        repeat_log = RateLimitedLog(log, 1.0)
 
         def act(actions: Actions, now_s: float) -> None:
             nonlocal last_state_s
@@ -76,7 +77,11 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                 stop_pub.put(**actions.stop)
             if actions.goal is not None:
                 goal_pub.put(**actions.goal)
-                log.info("goal", extra=kv(**{k: v for k, v in actions.goal.items() if k in ("goal_id", "kind")}))
+                ids = {k: v for k, v in actions.goal.items() if k in ("goal_id", "kind")}
+                if actions.goal_repeated:
+                    repeat_log.info(ids["goal_id"], "goal sent again: no report from motion on it yet", **ids)
+                else:
+                    log.info("goal", extra=kv(**ids))
             if actions.state_changed or now_s - last_state_s >= STATE_PERIOD_S:
                 state_pub.put(phase=sequencer.phase, episode_id=sequencer.episode_id,
                               reason=sequencer.reason[:512], elapsed_s=min(sequencer.elapsed_s(now_s), 86400.0),

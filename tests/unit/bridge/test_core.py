@@ -187,6 +187,21 @@ def test_only_a_goal_sent_after_the_stop_ends_it():
     assert brake.admit("anything")  # no stop: commands pass
 
 
+def test_a_goal_sent_before_the_stop_but_arriving_after_it_does_not_end_the_stop():
+    s = 1_000_000_000
+    brake = StopBrake()
+    brake.engage("release", np.zeros(7), source="supervisor", stamp_ns=100 * s)
+    # A copy of the reach goal, sent before the stop and delayed on the bus, arrives now.
+    brake.goal_after_stop("reach-2", "supervisor", 99 * s)
+    assert not brake.admit("reach-2") and brake.active and brake.stale_goals == 1
+    brake.goal_after_stop("retract-3", "supervisor", 101 * s)  # sent after the stop
+    assert brake.admit("retract-3") and not brake.active
+    # Another source's clock is not compared: its goal counts by arrival, as before.
+    brake.engage("launcher stop", np.zeros(7), source="launcher", stamp_ns=500 * s)
+    brake.goal_after_stop("g", "supervisor", 102 * s)
+    assert brake.admit("g")
+
+
 def test_a_protective_stop_is_latched_until_a_new_episode():
     brake = StopBrake()
     brake.engage("protective stop: gripper lost", np.zeros(7), protective=True)

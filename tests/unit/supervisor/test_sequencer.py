@@ -279,3 +279,30 @@ def test_config_rejects_bad_values_with_the_key_named():
         parse_config({"watch": {"recorder": "ignore"}})
     assert parse_config({}).watch == {"recorder": "report"}
     assert math.isclose(parse_config({"rate_hz": 50}).period_s, 0.02)
+
+
+def test_a_goal_is_sent_again_until_motion_reports_on_it():
+    w = World(goal_repeat_s=0.1)
+    w.record(w.seq.start_episode(w.now))
+    w.tick()
+    first = w.goals[-1]
+    for _ in range(35):  # 0.35 s without a word from motion (the goal was lost on the bus)
+        w.tick()
+    assert len(w.goals) == 4 and all(g == first for g in w.goals)  # the same goal, same id, 3 times more
+    assert w.seq.episode.goal_repeats == 3
+    w.motion("moving", progress=0.0)
+    for _ in range(30):
+        w.tick()
+    assert len(w.goals) == 4  # reported on: not sent again
+
+
+def test_a_goal_is_never_sent_again_after_a_stop():
+    w = World(goal_repeat_s=0.1)
+    w.run_to_transfer()
+    w.tick(target=TransferTarget(**H, position_task_m=(0.0, 0.5), position_base_m=(0.45, -0.10, 0.28),
+                                 reach_duration_s=1.2, peak_speed_m_s=0.5, receiver_posture="standing"))
+    sent = len(w.goals)
+    w.record(w.seq.on_release(w.now, "release event from gripper"))  # before motion reported on anything new
+    for _ in range(40):
+        w.tick(joints=joints(0.2))
+    assert len(w.goals) == sent and w.seq.phase == "released"
