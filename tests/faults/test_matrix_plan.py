@@ -143,3 +143,12 @@ def test_campaign_interrupted_keeps_the_runs_before(tmp_path, monkeypatch, capsy
     assert "interrupted" in capsys.readouterr().err
     results = json.loads((tmp_path / "matrix.json").read_text())
     assert [k for k, c in results.items() if c["runs"]] == ["motion/reach/kill"]
+
+
+def test_latencies_measured_by_receive_time_are_left_out():
+    old = _run(0, det=0.9)
+    old["latency_by"] = "receive"  # recorded before the judge used the senders' stamps
+    results = {"motion/reach/kill": {"cell": ["motion", "reach", "kill"], "runs": [old, _run(1, det=0.03)]}}
+    text = render(results)
+    assert "| kill | 2 | released 2 | 30 / 30, 1 |" in text
+    assert "| 2 | 0 | released 2 | 30 / 30 |" in text
