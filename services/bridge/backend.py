@@ -99,11 +99,15 @@ class SimBackend:
 
     def catch_up(self, gap_s: float) -> None:
         """The simulated robot did not stop when the bridge stalled: like Baxter's own
-        controller it goes on with the last command for up to `robot_command_timeout_s`, then
-        holds for the rest of the gap (the scene, if any, advances with it)."""
+        controller it goes on toward the last position command for up to
+        `robot_command_timeout_s`, then holds for the rest of the gap (the scene, if any,
+        advances with it). The command's velocity feed-forward is not carried on: it belongs to
+        a streamed trajectory that stopped coming (Baxter's position mode servoes to the last
+        position it was given)."""
         if gap_s <= 0.0:
             return
         going_on_s = min(gap_s, self.robot_command_timeout_s)
+        self.arm.set_target(self.arm.target_rad.copy(), None)
         self.step(going_on_s)
         if gap_s > going_on_s:
             self.hold()

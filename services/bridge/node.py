@@ -86,6 +86,8 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                     # The loop stalled: the robot did not wait for it. Live through the gap
                     # under the old command before this tick's stops and commands act.
                     backend.catch_up(dt_s - ticker.period_s)
+                    if brake.active:
+                        brake.step(dt_s - ticker.period_s)  # the brake's ramp went on too
                     dt_s = ticker.period_s
                 measured = backend.read()
                 current = measured.position_rad

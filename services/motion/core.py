@@ -218,16 +218,16 @@ class MotionController:
                 None if measured_dq_rad_s is None else np.asarray(measured_dq_rad_s, dtype=float)
             )
             self._measured_at_s = now_s if measured_at_s is None else measured_at_s
+        for stop in stops:  # first: a goal sent before a stop of this tick is not even planned
+            self.goals.stop_seen(stop.source, stop.stamp_ns)
         for goal in goals:
             # Each goal once, never one sent before a stop (`goal_filter`): copies of a goal
             # and late arrivals must not move the arm again.
-            why = self.goals.reason_to_ignore(goal.source, goal.goal_id, goal.stamp_ns)
+            why = self.goals.reason_to_ignore(goal.source, goal.goal_id, goal.seq, goal.stamp_ns)
             if why is None:
                 self._accept_goal(goal, now_s)
             elif why != "a copy of the goal in progress":
                 log.info("goal '%s' ignored: %s", goal.goal_id, why)
-        for stop in stops:
-            self.goals.stop_seen(stop.source, stop.stamp_ns)
         if stops:
             self._apply_stop(stops[-1], now_s)
         self._advance(now_s)

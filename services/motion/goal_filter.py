@@ -4,62 +4,70 @@ The supervisor sends a goal again (same `goal_id`) until the motion service repo
 so a goal lost on the bus is not the end of the episode (`SupervisorConfig.goal_repeat_s`).
 That makes copies, and copies (or any goal) can arrive late: delayed on the bus, queued
 behind a stalled process. Acting on a late goal would move the arm to where the handover no
-longer wants it, or restart a goal that a stop ended. By the sender's stamp (`stamp_ns`,
-one clock per source), a goal is ignored when:
+longer wants it, or restart a goal that a stop ended. Per source, a goal is ignored when it is:
 
-- a stop from the same source was stamped at or after it (it was sent before that stop);
-- a newer goal from the same source was already accepted (it is a late copy of an older goal);
-- it is a copy of the goal being executed: same `goal_id` and source, stamped within
-  `DUPLICATE_WINDOW_S` of the first copy accepted (a restarted supervisor that reuses an id
-  comes seconds later and is a new goal).
+- a copy of the goal in progress (same `goal_id`), however late;
+- older, by the sender's stamp, than a goal already accepted (a late copy of an earlier goal);
+- older, by the sender's stamp, than a stop from the same source (sent before that stop).
 
-Unstamped messages (``stamp_ns == 0``, hand-made in tests) are always acted on.
+Stamps (`stamp_ns`, the sender's wall clock) are only compared between two messages of one
+source, never across hosts. A sender that restarted (its per-publisher `seq` went back) starts
+afresh, so a new supervisor may reuse goal ids. A backward step of the sender's clock would
+make its next goals look old and be ignored until the clock catches up (fail-safe: the episode
+times out); keep NTP slewing, not stepping, on a running robot. Unstamped messages
+(``stamp_ns == 0``, hand-made in tests) are only checked for copies of the goal in progress.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-#: Copies of the current goal stamped within this of its first accepted copy are duplicates, s.
-DUPLICATE_WINDOW_S = 2.0
 
+@dataclass
+class _Source:
+    """What one sender (one process instance) has said so far."""
 
-@dataclass(frozen=True)
-class _Accepted:
-    source: str
-    goal_id: str
-    stamp_ns: int
+    newest_stop_ns: int = 0
+    newest_goal_ns: int = 0
+    last_goal_seq: int = -1
+    current_goal_id: str | None = None
 
 
 class GoalFilter:
     """Remembers, per source, the newest stop and the newest accepted goal (sender stamps)."""
 
     def __init__(self) -> None:
-        self._newest_stop_ns: dict[str, int] = {}
-        self._newest_goal_ns: dict[str, int] = {}
-        self._current: _Accepted | None = None
+        self._sources: dict[str, _Source] = {}
         self.ignored = 0
 
-    def stop_seen(self, source: str, stamp_ns: int) -> None:
-        """A stop from `source` stamped `stamp_ns` arrived (applied or not)."""
-        if stamp_ns > 0:
-            self._newest_stop_ns[source] = max(stamp_ns, self._newest_stop_ns.get(source, 0))
+    def _source(self, name: str) -> _Source:
+        return self._sources.setdefault(name, _Source())
 
-    def reason_to_ignore(self, source: str, goal_id: str, stamp_ns: int) -> str | None:
-        """Why a goal must not be acted on (None: act on it, and it becomes the current one)."""
+    def stop_seen(self, source: str, stamp_ns: int) -> None:
+        """A stop from `source` stamped `stamp_ns` arrived, applied or not. Call it for a
+        tick's stops before its goals: a goal sent before a stop that arrives in the same tick
+        is then not planned at all."""
+        s = self._source(source)
         if stamp_ns > 0:
-            reason = None
-            if stamp_ns <= self._newest_stop_ns.get(source, 0):
-                reason = "sent before a stop"
-            elif stamp_ns <= self._newest_goal_ns.get(source, 0):
-                reason = "older than a goal already accepted"
-            elif (self._current is not None and self._current.source == source
-                  and self._current.goal_id == goal_id
-                  and stamp_ns - self._current.stamp_ns < DUPLICATE_WINDOW_S * 1e9):
-                reason = "a copy of the goal in progress"
-            if reason is not None:
-                self.ignored += 1
-                return reason
-            self._newest_goal_ns[source] = stamp_ns
-            self._current = _Accepted(source, goal_id, stamp_ns)
+            s.newest_stop_ns = max(stamp_ns, s.newest_stop_ns)
+
+    def reason_to_ignore(self, source: str, goal_id: str, seq: int, stamp_ns: int) -> str | None:
+        """Why a goal must not be acted on (None: act on it, and it becomes the current one)."""
+        s = self._source(source)
+        if seq < s.last_goal_seq:  # the sender restarted: its goals (and goal ids) start afresh
+            s.newest_goal_ns, s.current_goal_id = 0, None
+        s.last_goal_seq = seq
+        reason = None
+        if goal_id == s.current_goal_id:
+            reason = "a copy of the goal in progress"
+        elif stamp_ns > 0 and stamp_ns <= s.newest_stop_ns:
+            reason = "sent before a stop"
+        elif stamp_ns > 0 and stamp_ns <= s.newest_goal_ns:
+            reason = "older than a goal already accepted"
+        if reason is not None:
+            self.ignored += 1
+            return reason
+        if stamp_ns > 0:
+            s.newest_goal_ns = stamp_ns
+        s.current_goal_id = goal_id
         return None

@@ -280,7 +280,7 @@ def judge(rec: RunRecord, strict_exit: bool = True) -> Verdict:
     joints = by_stamp(rec.joints)
     prot = [m for _t, m in rec.stops if m.protective]
     if prot:
-        t_prot = stamp_s(prot[0])
+        t_prot = min(stamp_s(m) for m in prot)
         rest = first_rest_after(joints, t_prot)
         if rest is not None:
             moved = motion_between(joints, rest, end_s)
@@ -293,9 +293,9 @@ def judge(rec: RunRecord, strict_exit: bool = True) -> Verdict:
                 violations.append(f"arm never came to rest after the protective stop: {unsettled}")
     release_stops = [stamp_s(m) for _t, m in rec.stops if not m.protective and m.reason == "release"]
     if release_stops:
-        t_rel = release_stops[0]
+        t_rel = min(release_stops)
         retract_goals = [stamp_s(g) for _t, g in rec.goals if stamp_s(g) >= t_rel and g.kind == "retract"]
-        until = retract_goals[0] if retract_goals else end_s
+        until = min(retract_goals) if retract_goals else end_s
         rest = first_rest_after(joints, t_rel)
         if rest is not None and rest < until:
             moved = motion_between(joints, rest, until)

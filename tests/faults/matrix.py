@@ -121,7 +121,7 @@ def _latencies(runs: list[dict]) -> tuple[list[float], list[float]]:
     """Detection and stop latencies (s) of the runs measured by the senders' stamps (runs
     recorded before the judge used stamps say ``"latency_by": "receive"`` and are left out:
     their receive times include the observer's own delays)."""
-    stamped = [r for r in runs if r.get("latency_by", "stamps") == "stamps"]
+    stamped = [r for r in runs if r.get("latency_by") == "stamps"]
     return ([r["detection_s"] for r in stamped if r["detection_s"] is not None],
             [r["stop_s"] for r in stamped if r["stop_s"] is not None])
 
@@ -277,7 +277,7 @@ def _campaign(args: argparse.Namespace, results: dict, todo: list[tuple[str, str
             run = {"seed": seed, "violations": v.violations, "outcome": v.outcome,
                    "missed": bool(rec.phases_missed), "exit_code": v.exit_code, "exit_line": v.exit_line,
                    "detection_s": v.detection_s.get(plan.label), "stop_s": v.stop_s.get(plan.label)}
-        run["commit"] = commit
+        run["commit"] = current_commit()  # the checkout this run started (it may move on)
         run["latency_by"] = "stamps"
         run["wall_s"] = round(time.monotonic() - run_started, 2)
         if run["violations"]:

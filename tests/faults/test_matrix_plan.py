@@ -32,7 +32,7 @@ def test_plan_for_targets_the_service_topic():
 
 def _run(seed, violations=(), outcome="released", det=0.05, commit="abc1234"):
     return {"seed": seed, "violations": list(violations), "outcome": outcome, "missed": False, "exit_code": 0,
-            "exit_line": "", "detection_s": det, "stop_s": None, "commit": commit}
+            "exit_line": "", "detection_s": det, "stop_s": None, "commit": commit, "latency_by": "stamps"}
 
 
 def test_render_counts_runs_violations_and_commits():

@@ -57,3 +57,13 @@ def test_the_handover_scene_advances_through_the_stall():
     assert steps == []
     backend.catch_up(0.5)
     assert steps == [0.2, 0.3]  # on with the last command, then held: 0.5 s of scene time
+
+
+def test_a_streamed_trajectory_is_not_carried_on_by_its_feed_forward():
+    # Commanded to where the arm is, moving at 0.8 rad/s (a trajectory's setpoint): the stale
+    # feed-forward must not push the arm 0.8 × 0.2 rad past the last position command.
+    backend = SimBackend(initial_position_rad=HOME, robot_command_timeout_s=0.2)
+    here = backend.read().position_rad.copy()
+    backend.command(here, np.array([0.8, 0, 0, 0, 0, 0, 0]))
+    backend.catch_up(1.0)
+    assert abs(backend.read().position_rad[0] - here[0]) < 1e-6
