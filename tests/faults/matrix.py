@@ -76,12 +76,13 @@ def write_atomic(path: Path, text: str) -> None:
 
 
 def current_commit() -> str:
-    """The short hash of the checkout the runs start (with ``+dirty`` for local changes)."""
+    """The short hash of the checkout the runs start (with ``+dirty`` for local changes to
+    anything but the results under ``out/``)."""
     repo = OUT.parents[1]
     try:
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=repo, capture_output=True, text=True,
                               check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=repo,
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--", ".", ":!out"], cwd=repo,
                                capture_output=True, text=True, check=True).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
