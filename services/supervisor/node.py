@@ -21,6 +21,10 @@ from services.supervisor.core import Actions, Sequencer, Snapshot, TargetFilter
 from services.supervisor.watchdog import Watchdog
 
 log = logging.getLogger(__name__)
+#: A loop iteration this much later than the previous one means the supervisor itself was
+#: starved: before calling a service silent it lets queued messages in for `SELF_STALL_SETTLE_S`.
+SELF_STALL_S = 0.05
+SELF_STALL_SETTLE_S = 0.01
 
 SERVICE_NAME = "supervisor"
 #: Data streams whose silence means their service is silent (topic → owner): fixed-rate
@@ -94,7 +98,27 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                 episode_pub.put(**actions.summary)
                 log.info("episode summary", extra=kv(**{k: actions.summary[k] for k in ("episode_id", "outcome", "reason")}))
 
-        next_tick = time.monotonic()
+        def take_inputs() -> None:
+            """Feed the watchdog and the snapshot with everything received so far."""
+            while True:
+                try:
+                    name, alive, at_s = liveliness_events.get_nowait()
+                except queue.Empty:
+                    break
+                watchdog.liveliness(name, alive, at_s)
+            for rx in heartbeats.drain():
+                watchdog.heartbeat(rx.msg.source, rx.rx_monotonic)
+            for name, sub in subs.items():
+                for rx in sub.drain():
+                    setattr(snap, name, rx.msg)
+                    if hasattr(snap, f"{name}_rx_s"):
+                        setattr(snap, f"{name}_rx_s", rx.rx_monotonic)
+                    if name == "target":
+                        targets.offer(rx.msg, rx.rx_monotonic)
+                    watchdog.stream(sub.topic.suffix, rx.rx_monotonic)
+
+        stall_log = RateLimitedLog(log, 5.0)
+        next_tick = last_loop_s = time.monotonic()
         try:
             while not node.should_stop:
                 node.wait(max(0.0, next_tick - time.monotonic()))
@@ -103,22 +127,18 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                 for rx in releases.drain():
                     act(sequencer.on_release(rx.rx_monotonic, f"release event from {rx.msg.source}"), now)
                 # 2. Watchdog inputs.
-                while True:
-                    try:
-                        name, alive, at_s = liveliness_events.get_nowait()
-                    except queue.Empty:
-                        break
-                    watchdog.liveliness(name, alive, at_s)
-                for rx in heartbeats.drain():
-                    watchdog.heartbeat(rx.msg.source, rx.rx_monotonic)
-                for name, sub in subs.items():
-                    for rx in sub.drain():
-                        setattr(snap, name, rx.msg)
-                        if hasattr(snap, f"{name}_rx_s"):
-                            setattr(snap, f"{name}_rx_s", rx.rx_monotonic)
-                        if name == "target":
-                            targets.offer(rx.msg, rx.rx_monotonic)
-                        watchdog.stream(sub.topic.suffix, rx.rx_monotonic)
+                take_inputs()
+                stalled_s, last_loop_s = now - last_loop_s, now
+                if stalled_s > SELF_STALL_S and any(f.what == "silent" for f in watchdog.pending(now)):
+                    # This loop itself was late (starved of CPU): what the others sent meanwhile
+                    # may still wait for this process's callback threads. Let it in before
+                    # calling anyone silent.
+                    stall_log.warning("stall", f"supervisor loop was {stalled_s * 1e3:.0f} ms late: "
+                                               "taking queued messages in before judging freshness",
+                                      late_ms=round(stalled_s * 1e3))
+                    time.sleep(SELF_STALL_SETTLE_S)
+                    take_inputs()
+                    now = time.monotonic()
                 for fault in watchdog.check(now):
                     critical = config.watch.get(fault.service, "critical") == "critical"
                     log.warning("service fault", extra=kv(service=fault.service, what=fault.what,

@@ -111,6 +111,13 @@ class Watchdog:
     # ------------------------------------------------------------------ judging
     def check(self, now_s: float) -> list[Fault]:
         """New faults at local time `now_s` (each reported once until recovery)."""
+        out = self.pending(now_s)
+        for fault in out:
+            self._w[fault.service].reported = True
+        return out
+
+    def pending(self, now_s: float) -> list[Fault]:
+        """The faults `check` would report at `now_s`, without reporting them."""
         out = []
         for name, w in self._w.items():
             if w.reported or not w.seen:
@@ -128,6 +135,5 @@ class Watchdog:
                         fault = Fault(name, "silent", f"silent: no {suffix} for {now_s - at_s:.3f} s", now_s, at_s)
                         break
             if fault is not None:
-                w.reported = True
                 out.append(fault)
         return out
