@@ -26,6 +26,9 @@ SAFE_OUTCOMES = ("released", "timeout", "aborted")
 #: The supervisor publishes its state at ≥ 20 Hz; older than this, it is frozen or hung
 #: (nothing else watches the watcher): the job stops the arm itself and fails, s.
 SUPERVISOR_SILENT_S = 0.25
+#: A loop iteration this much after the previous one (it waits at most 50 ms) means the
+#: launcher itself was starved: states may still wait in its socket.
+SELF_STALL_S = 0.1
 
 
 @dataclass
@@ -116,16 +119,23 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
             pass
         return JobResult(False, message, watch.reports)
 
-    while True:
-        node.wait(0.05)
-        for rx in truth.drain():
-            watch.truth(rx.msg)
+    def take_states() -> None:
+        nonlocal last_state_s, last_progress
         for rx in states.drain():
             last_state_s = rx.rx_monotonic
             line = watch.state(rx.msg)
             if line is not None:
                 say(line)
                 last_progress = time.monotonic()
+
+    last_loop_s = time.monotonic()
+    while True:
+        node.wait(0.05)
+        now_s = time.monotonic()
+        late, last_loop_s = now_s - last_loop_s > SELF_STALL_S, now_s
+        for rx in truth.drain():
+            watch.truth(rx.msg)
+        take_states()
         for rx in summaries.drain():
             report = watch.summary(rx.msg)
             for line in report.lines:
@@ -140,6 +150,11 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
         if reason is not None:
             return stopped(reason)
         silent_s = time.monotonic() - last_state_s if last_state_s is not None else 0.0
+        if silent_s > SUPERVISOR_SILENT_S and late:
+            # This loop was itself starved: let the states that waited in the socket in first.
+            time.sleep(0.01)
+            take_states()
+            silent_s = time.monotonic() - last_state_s if last_state_s is not None else 0.0
         if silent_s > SUPERVISOR_SILENT_S:
             return stopped(f"supervisor: silent: no supervisor/state for {silent_s:.3f} s; the launcher stopped the arm")
         if not math.isinf(episode_timeout_s) and time.monotonic() - last_progress > episode_timeout_s:
