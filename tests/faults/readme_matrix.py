@@ -1,0 +1,141 @@
+"""Rewrite the README's section "The full fault matrix" from out/faults/matrix.json.
+
+    python -m tests.faults.readme_matrix
+
+Run it after a campaign (`python -m tests.faults.matrix`) and read the result: a run that
+broke an invariant is listed with the explanation in `EXPLAIN` for that run
+(``<service>/<phase>/<fault>#<seed>@<commit>``), or
+as "Not explained yet" until someone has looked at its log and written one.
+"""
+
+import json
+import re
+from pathlib import Path
+
+from tests.faults.matrix import FAULTS, PHASES, SERVICES, progress, render, summary
+
+REPO = Path(__file__).resolve().parents[2]
+
+EXPLAIN = {
+    "motion/transfer/freeze#1@22ddb36": ("**Fixed.** Not the frozen motion service: the supervisor's log shows the bridge, "
+                           "gripper, tracker, Kinect and planner all 'silent' at one instant, i.e. the supervisor "
+                           "itself had been starved and judged before taking in what waited in its socket; the "
+                           "stop named the bridge, so the fault was not named. A late supervisor loop now takes "
+                           "queued messages in first ([watchdogs](#watchdogs), `tests/integration/test_supervisor_stall.py`)."),
+    "supervisor/locate/drop#0@ec337ac": ("**Fixed.** Half of `motion/goal` dropped: a lost pick or reach goal left the episode "
+                             "waiting for a move that never started, until the move's time-out (`failed`, exit 1). "
+                             "The supervisor now sends a goal again until motion reports on it, motion acts on each "
+                             "goal once, and the bridge ends a stop only with a goal sent after it "
+                             "([Supervisor](#supervisor-and-the-full-handover-handover-supervisor-servicessupervisor)); "
+                             "the cells hand over since."),
+}
+EXPLAIN["supervisor/pick/drop#0@ec337ac"] = EXPLAIN["supervisor/locate/drop#0@ec337ac"]
+
+
+def main() -> int:
+    """Rewrite the section; print one line saying what went in."""
+    repo = REPO
+    readme = repo / "README.md"
+    s = readme.read_text()
+    results = json.loads((repo / "out/faults/matrix.json").read_text())
+    cells = [(a, b, c) for a in SERVICES for b in PHASES for c in FAULTS]
+    prog = progress(results, cells, 10)
+    runs = [r | {"key": k} for k, c in results.items() for r in c["runs"]]
+    total = len(runs)
+    least = min(len(c["runs"]) for c in results.values())
+    commits = sorted({r["commit"] for r in runs})
+    walls = [r["wall_s"] for r in runs if "wall_s" in r]
+    bad = [r for r in runs if r["violations"]]
+    vio_lines = []
+    for r in bad:
+        service, phase, fault = r["key"].split("/")
+        why = EXPLAIN.get(f"{r['key']}#{r['seed']}@{r['commit']}", "**Not explained yet**: see the log.")
+        log = f" (`out/faults/{r['log']}`)" if r.get("log") else ""
+        vio_lines.append(f"- `{r['key']}` run {r['seed'] + 1} on `{r['commit']}`: {'; '.join(r['violations'])[:300]}{log}. {why}")
+    # protective stops that the injected fault does not explain: a tolerated fault on one service,
+    # a stop naming another
+    odd = []
+    for r in runs:
+        service, phase, fault = r["key"].split("/")
+        if r["outcome"] == "protective_stop" and fault in ("delay", "drop", "flood"):
+            m = re.search(r"protective stop: (\w+):", r["exit_line"])
+            named = m.group(1) if m else "?"
+            if named != service or fault == "flood" or (fault == "drop" and service == "bridge"):
+                odd.append(f"`{r['key']}` (`{r['commit']}`): {r['exit_line'].split('protective stop: ', 2)[-1][:80]}")
+    summ = summary(results)
+    table = render(results).split(summ + "\n", 1)[1].strip()
+    text = f"""### The full fault matrix (long suite): in progress
+
+**Status: {total} of the 2 400 runs ({100 * total / 2400:.0f} %); every one of the 240 cells
+(8 services × 6 phases × 5 faults) has at least {least} run{'s' if least > 1 else ''}. The
+matrix at 10 runs per cell is not finished.** A run is one whole `handover-up` (the handover
+runs in real time), {sum(walls) / len(walls):.1f} s on average on this 2-core machine, so the
+2 400 runs take about {2400 * sum(walls) / len(walls) / 3600:.1f} h; the campaign fills the
+cells round by round (every cell gets its n-th run before any gets its n+1-th), records every
+run at once and resumes where it stopped, so it is being completed across sessions:
+
+```
+python -m tests.faults.matrix --status        # {prog}
+python -m tests.faults.matrix --runs 10 --budget-s 7200   # go on for two hours (SIGINT/SIGTERM stop it cleanly)
+python -m tests.faults.readme_matrix                      # then this section is rewritten from the results
+```
+
+Each run records its commit: the runs so far span {len(commits)} commits of 2026-11-21
+({", ".join(f"`{c}`" for c in commits)}), because the fixes below landed while the campaign
+ran. Latencies count only the runs judged by the senders' stamps (the earlier
+{sum(1 for r in runs if r.get("latency_by") == "receive")} runs were timed by when the
+observer received the messages, which includes its own delays). Per fault, over all phases
+(`out/faults/matrix.md`, `out/faults/matrix.json`):
+
+{summ}
+Detection is from the injection to the supervisor's (or the launcher's) first report naming
+the service; stop is to the arm at rest in the bridge's joint states after the protective
+stop. The recorder is report-only: it is judged silent after 0.75 s by design, and its loss
+stops nothing. The freeze stop tail is the frozen bridge: the simulated arm lives inside it,
+so the stop can only be seen when it thaws (1 s); it went on for Baxter's own 0.2 s command
+time-out and held ([`handover-bridge`](#handover-bridge--the-robot-bridge)).
+
+**Runs that broke an invariant ({len(bad)}):**
+
+{chr(10).join(vio_lines) if vio_lines else "none."}
+
+**Protective stops that the injected fault does not explain ({len(odd)}):** a tolerated
+fault (delay, drop, flood) on one service, and the stop names a different service or a stream
+that the fault cannot have silenced. These are safe outcomes (the arm stopped, the object was
+held, the service was named) but unneeded; they are what CPU contention on 2 cores does to the
+200 ms stream and 250 ms heartbeat watchdogs (the observer and the flood threads of the
+campaign run beside the stack):
+
+{chr(10).join("- " + o for o in odd) if odd else "none."}
+
+All of them ran before the supervisor learned to take queued messages in when its own loop
+was late (`904bbe4`); the {sum(1 for r in runs if r["commit"] == "904bbe4")} runs on that commit showed none.
+Kill detection above the 100 ms target: {", ".join(f"`{r['key']}` {r['detection_s'] * 1e3:.0f} ms" for r in runs if r["key"].endswith("/kill") and r.get("latency_by") == "stamps" and (r.get("detection_s") or 0) > 0.1 and not r["key"].startswith("recorder"))}
+(of {sum(1 for r in runs if r["key"].endswith("/kill") and r.get("latency_by") == "stamps" and r.get("detection_s") is not None and not r["key"].startswith("recorder"))} stamped kill runs of critical services), with the campaign's
+observer beside the stack.
+
+A 0.3 s delay of the bridge's `robot/joint_state` ends in a protective stop (`bridge:
+silent: no robot/joint_state`) by design: a stream 0.3 s late is a stale stream.
+
+<details><summary>Every cell ({len(results)} cells, {total} runs)</summary>
+
+{table}
+
+</details>
+
+Earlier partial campaigns: `out/faults/matrix_session3.{{md,json}}` (every service × reach and
+transfer × every fault, one run each, 83 runs; 4 "arm moved after the release stop" violations
+judged by receive order, and a flood on `robot/joint_state` that made motion's IK fall behind,
+both fixed since) and `out/faults/matrix_session2.{{md,json}}` (22 runs).
+
+"""
+    start = s.index("### Matrix (one run per cell, reach and transfer)") if "### Matrix (one run per cell, reach and transfer)" in s else s.index("### The full fault matrix (long suite): in progress")
+    end = s.index("### Findings", start)
+    s = s[:start] + text + s[end:]
+    readme.write_text(s)
+    print(f"README: {prog}; {len(bad)} runs with a violation, {len(odd)} unexplained protective stops")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
