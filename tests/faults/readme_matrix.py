@@ -48,7 +48,6 @@ def main() -> int:
     bad = [r for r in runs if r["violations"]]
     vio_lines = []
     for r in bad:
-        service, phase, fault = r["key"].split("/")
         why = EXPLAIN.get(f"{r['key']}#{r['seed']}@{r['commit']}", "**Not explained yet**: see the log.")
         log = f" (`out/faults/{r['log']}`)" if r.get("log") else ""
         vio_lines.append(f"- `{r['key']}` run {r['seed'] + 1} on `{r['commit']}`: {'; '.join(r['violations'])[:300]}{log}. {why}")
