@@ -30,6 +30,7 @@ from services.gripper.benchmark import (
 )
 from services.gripper.controllers import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
+from services.runtime.cli import HelpFormatter
 
 
 
@@ -61,7 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="handover-bench",
         description="Monte-Carlo benchmark of the gripper release controllers on the realistic contact plant.",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+        formatter_class=HelpFormatter)
     p.add_argument("--controllers", nargs="+", default=list(DEFAULT_CONTROLLERS), metavar="NAME",
                    help=f"controllers to compare (known: {', '.join(CONTROLLER_NAMES)})")
     p.add_argument("-n", "--episodes", type=_positive_int, default=200, help="episodes per controller")

@@ -15,6 +15,7 @@ from robot_sim import baxter, scene
 from services.motion.config import MotionConfig
 from services.motion.errors import MotionError
 from services.runtime import ServiceError, base_parser, load_profile, run_main
+from services.runtime.cli import HelpFormatter
 
 
 class MotionCliError(ServiceError):
@@ -116,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
     sub.add_parser("run", help="run the service on the bus (the default)")
     plan = sub.add_parser(
         "plan", help="plan one goal without the bus and print (or plot) the trajectory",
-        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     plan.add_argument("--kind", choices=["transfer", "pick", "retract", "joint"], default="transfer",
                       help="transfer: minimum-jerk Cartesian reach; others: Ruckig joint moves")
@@ -124,8 +125,10 @@ def main(argv: list[str] | None = None) -> int:
                       help="target tool position in the base frame, m")
     plan.add_argument("--to-task", type=float, nargs=2, metavar=("X", "Z"),
                       help="target in the task plane (x toward the receiver, z up from the table top), m")
-    plan.add_argument("--joints", type=float, nargs=7, help="joint target (kind joint/retract), rad")
-    plan.add_argument("--from-joints", type=float, nargs=7,
+    joint_names = ("S0", "S1", "E0", "E1", "W0", "W1", "W2")
+    plan.add_argument("--joints", type=float, nargs=7, metavar=joint_names,
+                      help="joint target (kind joint/retract), rad")
+    plan.add_argument("--from-joints", type=float, nargs=7, metavar=joint_names,
                       help="start joints, rad (default: the home posture)")
     plan.add_argument("--duration", type=float, default=0.0, help="duration, s (0: from speed)")
     plan.add_argument("--peak-speed", type=float, default=0.0, help="peak tool speed, m/s (0: default)")

@@ -28,6 +28,17 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(EXIT_BAD_INPUT)
 
 
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Adds ``(default: X)`` to an option's help, but not when the help already says what the
+    default is, nor when there is no default to show (None, or an off switch)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        help_text = action.help or ""
+        if "default" in help_text.lower() or action.default in (None, False, argparse.SUPPRESS):
+            return help_text
+        return super()._get_help_string(action)
+
+
 def base_parser(prog: str, description: str) -> argparse.ArgumentParser:
     """An argument parser with the flags every service shares.
 
@@ -36,7 +47,7 @@ def base_parser(prog: str, description: str) -> argparse.ArgumentParser:
     ``--log-json``.
     """
     parser = _Parser(prog=prog, description=description,
-                     formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+                     formatter_class=HelpFormatter)
     group = parser.add_argument_group("bus and logging")
     group.add_argument("--profile", "--config", dest="profile", default=DEFAULT_PROFILE,
                        help="deploy profile: a name under deploy/ (sim, baxter, …) or a path to a TOML file")

@@ -33,6 +33,7 @@ from services.runtime.faults import FaultyPut, rules_for
 from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile, zenoh_config
+from services.runtime.stamps import SENDER_CLOCK
 
 #: Period of every service's heartbeat (`runtime/heartbeat`), s.
 HEARTBEAT_PERIOD_S = 0.05
@@ -149,7 +150,8 @@ class TypedSubscription(Generic[M]):
 
 
 class TypedPublisher(Generic[M]):
-    """Publisher of one topic; fills the header (per-publisher `seq`, `stamp_ns`, `source`)."""
+    """Publisher of one topic; fills the header (per-publisher `seq`, `stamp_ns` from the
+    process's `SENDER_CLOCK`, `source`)."""
 
     def __init__(self, node: ServiceNode, topic: Topic) -> None:
         self.topic = topic
@@ -175,7 +177,7 @@ class TypedPublisher(Generic[M]):
         with self._lock:
             seq = self._seq
             self._seq += 1
-        return {"seq": seq, "stamp_ns": time.time_ns(), "source": self._source}
+        return {"seq": seq, "stamp_ns": SENDER_CLOCK.now_ns(), "source": self._source}
 
     def put(self, **fields: Any) -> M:
         """Build a message of the topic's type from `fields` plus a fresh header; publish it.
