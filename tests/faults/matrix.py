@@ -13,8 +13,9 @@ or drop that silences a stream may end in a named protective stop). Results accu
 interrupted campaign resumes) and the table is rewritten to ``out/faults/matrix.md`` after
 every run. Cells are filled round by round (every chosen cell gets its 1st run, then its 2nd,
 ...), so a campaign stopped by its budget leaves an even table rather than a few full cells.
-Each run records the commit it ran on and its wall time; the launcher output of a run that
-broke an invariant (or that the harness could not finish) is kept in
+Each run records the commit it ran on, its start (UTC), wall time and the machine's 1-minute
+load at its end; the launcher output of a run that broke an invariant, that ended in a stop its
+fault does not explain (`unexplained_stop`) or that the harness could not finish is kept in
 ``out/faults/matrix_logs/<service>-<phase>-<fault>-<seed>.log`` for diagnosis.
 
 Per service, delay/drop/flood hit the topic it publishes that the handover depends on most
@@ -25,8 +26,10 @@ Per service, delay/drop/flood hit the topic it publishes that the handover depen
 from __future__ import annotations
 
 import argparse
+import datetime
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -66,6 +69,41 @@ def plan_for(service: str, phase: str, fault: str) -> FaultPlan:
     if fault == "drop":
         return FaultPlan("drop", service, phase, topic=topic, value=DROP_P)
     return FaultPlan("flood", service, phase, topic=topic, duration_s=FLOOD_S, rate_hz=FLOOD_HZ)
+
+
+#: How the launcher's exit line blames a service for a stop: the supervisor's protective stop,
+#: the launcher's own verdict on a silent supervisor, a safety service that died.
+_BLAMED = (re.compile(r"protective stop: (\w+):"), re.compile(r"exit \d+: (\w+): silent"),
+           re.compile(r"exit \d+: (\w+) was killed"))
+
+
+def stop_blames(exit_line: str) -> str | None:
+    """The service the launcher's exit line blames for a stop (None: it blames none)."""
+    for pattern in _BLAMED:
+        m = pattern.search(exit_line)
+        if m:
+            return m.group(1)
+    return None
+
+
+def unexplained_stop(service: str, fault: str, exit_line: str) -> str | None:
+    """Why a run's stop is not explained by its injected fault (None: it is, or no stop).
+
+    A stop blaming another service than the faulted one is unexplained (e.g. a frozen motion
+    service and the supervisor names the gripper); so is any stop after a flood of garbage
+    (it must be dropped at decode and silence nothing), and a stop for the bridge's joint
+    states after half of them were dropped (100 Hz: 20 in a row would have to be lost).
+    """
+    blamed = stop_blames(exit_line)
+    if blamed is None:
+        return None
+    if blamed != service:
+        return f"the stop blames {blamed}, not the faulted {service}"
+    if fault == "flood":
+        return "a flood of garbage ended in a stop"
+    if fault == "drop" and service == "bridge":
+        return "half the joint states dropped ended in a stop"
+    return None
 
 
 def write_atomic(path: Path, text: str) -> None:
@@ -267,6 +305,7 @@ def _campaign(args: argparse.Namespace, results: dict, todo: list[tuple[str, str
         plan = plan_for(service, phase, fault)
         seed = len(cell["runs"])
         run_started = time.monotonic()
+        started_utc = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
         log_path = args.out / "matrix_logs" / f"{service}-{phase}-{fault}-{seed}.log"
         try:
             rec = run_with_faults([plan], receiver="taking", seed=seed, log_path=log_path)
@@ -281,13 +320,19 @@ def _campaign(args: argparse.Namespace, results: dict, todo: list[tuple[str, str
         run["commit"] = current_commit()  # the checkout this run started (it may move on)
         run["latency_by"] = "stamps"
         run["wall_s"] = round(time.monotonic() - run_started, 2)
-        if run["violations"]:
+        run["started_utc"] = started_utc
+        run["load_1m"] = round(os.getloadavg()[0], 2)  # the machine's load at the end of the run
+        odd = unexplained_stop(service, fault, run["exit_line"] or "")
+        if odd:
+            run["unexplained_stop"] = odd
+        if run["violations"] or odd:
             run["log"] = str(log_path.relative_to(args.out))
         else:
             log_path.unlink(missing_ok=True)  # only the runs worth a look keep their output
         cell["runs"].append(run)
         print(f"[{n_done + 1}/{len(todo)}] {key} run {len(cell['runs'])}: {run['outcome']} "
-              f"exit {run['exit_code']} violations {len(run['violations'])} ({run['wall_s']:.0f} s)", flush=True)
+              f"exit {run['exit_code']} violations {len(run['violations'])} ({run['wall_s']:.0f} s)"
+              + (f" UNEXPLAINED STOP: {odd}" if odd else ""), flush=True)
         write_atomic(json_path, json.dumps(results, indent=1))
         write_atomic(md_path, render(results))
 

@@ -8,16 +8,17 @@ broke an invariant is listed with the explanation in `EXPLAIN` for that run
 as "Not explained yet" until someone has looked at its log and written one.
 """
 
+import functools
 import json
-import re
 import subprocess
 from pathlib import Path
 
-from tests.faults.matrix import FAULTS, PHASES, SERVICES, progress, render, summary
+from tests.faults.matrix import FAULTS, PHASES, SERVICES, progress, render, summary, unexplained_stop
 
 REPO = Path(__file__).resolve().parents[2]
 
 
+@functools.lru_cache(maxsize=None)
 def _since(commit: str, base: str) -> bool:
     """Whether `commit` has `base` in its history (git; False when git cannot tell)."""
     done = subprocess.run(["git", "merge-base", "--is-ancestor", base, commit], cwd=REPO, capture_output=True)
@@ -37,6 +38,17 @@ EXPLAIN = {
                              "the cells hand over since."),
 }
 EXPLAIN["supervisor/pick/drop#0@ec337ac"] = EXPLAIN["supervisor/locate/drop#0@ec337ac"]
+
+#: Why a run ended in a stop that its fault does not explain (same keys as `EXPLAIN`).
+_OPERATOR_LOAD = ("Ran while the operator ran a minute of unit tests (192 tests) beside the campaign on the same "
+                  "2 cores, at a load above 10; a service starved for 200-250 ms was judged silent. The "
+                  "operator's mistake, not the stack's; the campaign is paused for any other work since.")
+ODD_EXPLAIN = {
+    "motion/pick/flood#2@04fca9f": _OPERATOR_LOAD,
+    "motion/plan/freeze#2@04fca9f": _OPERATOR_LOAD,
+    "motion/plan/delay#2@04fca9f": _OPERATOR_LOAD,
+    "motion/transfer/freeze#1@22ddb36": "The violation above (a starved supervisor; fixed in `904bbe4`).",
+}
 
 
 def main() -> int:
@@ -58,16 +70,24 @@ def main() -> int:
         why = EXPLAIN.get(f"{r['key']}#{r['seed']}@{r['commit']}", "**Not explained yet**: see the log.")
         log = f" (`out/faults/{r['log']}`)" if r.get("log") else ""
         vio_lines.append(f"- `{r['key']}` run {r['seed'] + 1} on `{r['commit']}`: {'; '.join(r['violations'])[:300]}{log}. {why}")
-    # protective stops that the injected fault does not explain: a tolerated fault on one service,
-    # a stop naming another
-    odd = []
+    # stops that the injected fault does not explain (`matrix.unexplained_stop`)
+    odd, odd_since_fix = [], []
     for r in runs:
-        service, phase, fault = r["key"].split("/")
-        if r["outcome"] == "protective_stop" and fault in ("delay", "drop", "flood"):
-            m = re.search(r"protective stop: (\w+):", r["exit_line"])
-            named = m.group(1) if m else "?"
-            if named != service or fault == "flood" or (fault == "drop" and service == "bridge"):
-                odd.append(f"`{r['key']}` (`{r['commit']}`): {r['exit_line'].split('protective stop: ', 2)[-1][:80]}")
+        service, _phase, fault = r["key"].split("/")
+        why_odd = unexplained_stop(service, fault, r["exit_line"] or "")
+        if why_odd is None:
+            continue
+        run_id = f"{r['key']}#{r['seed']}@{r['commit']}"
+        told = ODD_EXPLAIN.get(run_id)
+        line = (f"`{r['key']}` run {r['seed'] + 1} (`{r['commit']}`): {why_odd} "
+                f"(\"{r['exit_line'].split('exit 1: ', 1)[-1][:90]}\")"
+                + (f". {told}" if told else (". Before the supervisor stall fix." if not _since(r["commit"], "904bbe4")
+                                             else ". **Not explained yet**: see the log."))
+                + (f" Log: `out/faults/{r['log']}`." if r.get("log") else ""))
+        odd.append(line)
+        if _since(r["commit"], "904bbe4"):
+            odd_since_fix.append(run_id)
+    since_fix = sum(1 for r in runs if _since(r["commit"], "904bbe4"))
     summ = summary(results)
     table = render(results).split(summ + "\n", 1)[1].strip()
     text = f"""### The full fault matrix (long suite): in progress
@@ -105,17 +125,17 @@ time-out and held ([`handover-bridge`](#handover-bridge--the-robot-bridge)).
 
 {chr(10).join(vio_lines) if vio_lines else "none."}
 
-**Protective stops that the injected fault does not explain ({len(odd)}):** a tolerated
-fault (delay, drop, flood) on one service, and the stop names a different service or a stream
-that the fault cannot have silenced. These are safe outcomes (the arm stopped, the object was
-held, the service was named) but unneeded; they are what CPU contention on 2 cores does to the
-200 ms stream and 250 ms heartbeat watchdogs (the observer and the flood threads of the
-campaign run beside the stack):
+**Stops that the injected fault does not explain ({len(odd)}):** the stop (the supervisor's
+protective stop, or the launcher's own when the supervisor went silent) blames a service other
+than the faulted one, or a tolerated fault (a flood of garbage, half of the bridge's joint
+states dropped) ended in a stop. These are safe outcomes (the arm stopped, the object was held,
+a service was named) but unneeded; they are what CPU starvation on 2 cores does to the 200 ms
+stream and 250 ms heartbeat watchdogs:
 
 {chr(10).join("- " + o for o in odd) if odd else "none."}
 
-All of them ran before the supervisor learned to take queued messages in when its own loop
-was late (`904bbe4`); the {sum(1 for r in runs if _since(r["commit"], "904bbe4"))} runs since showed none.
+Since the supervisor learned to take queued messages in when its own loop was late
+(`904bbe4`), {len(odd_since_fix)} of {since_fix} runs ended in such a stop{" (" + ", ".join(f"`{k}`" for k in odd_since_fix) + ")" if odd_since_fix else ""}.
 Kill detection above the 100 ms target: {", ".join(f"`{r['key']}` {r['detection_s'] * 1e3:.0f} ms" for r in runs if r["key"].endswith("/kill") and r.get("latency_by") == "stamps" and (r.get("detection_s") or 0) > 0.1 and not r["key"].startswith("recorder"))}
 (of {sum(1 for r in runs if r["key"].endswith("/kill") and r.get("latency_by") == "stamps" and r.get("detection_s") is not None and not r["key"].startswith("recorder"))} stamped kill runs of critical services), with the campaign's
 observer beside the stack.

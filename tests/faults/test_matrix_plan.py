@@ -5,9 +5,14 @@ from __future__ import annotations
 import json
 import time
 
-from tests.faults.matrix import main, plan_for, progress, render, round_robin, summary
+from tests.faults.matrix import main, plan_for, progress, render, round_robin, stop_blames, summary, unexplained_stop
 
 CELLS = [("motion", "reach", "kill"), ("motion", "reach", "flood"), ("bridge", "transfer", "freeze")]
+
+SUPERVISOR_STOP = ("[launcher] exit 1: episode 1: protective_stop: protective stop: gripper: silent: "
+                   "no gripper/state for 0.206 s")
+LAUNCHER_STOP = "[launcher] exit 1: supervisor: silent: no supervisor/state for 0.254 s; the launcher stopped the arm"
+KILLED = "[launcher] exit 1: motion was killed by SIGKILL; it is a safety service, not restarted mid-episode"
 
 
 def test_round_robin_fills_every_cell_before_any_second_run():
@@ -85,7 +90,7 @@ def test_progress_and_status(tmp_path, capsys):
     assert "cannot read" in capsys.readouterr().err
 
 
-def test_campaign_keeps_the_logs_of_runs_with_violations_only(tmp_path, monkeypatch, capsys):
+def test_campaign_keeps_the_logs_of_runs_with_violations_or_unexplained_stops_only(tmp_path, monkeypatch, capsys):
     """The bookkeeping of `main` (the stack runs are stood in for: this is about the files)."""
     from types import SimpleNamespace
 
@@ -98,20 +103,28 @@ def test_campaign_keeps_the_logs_of_runs_with_violations_only(tmp_path, monkeypa
 
     def fake_judge(rec, strict_exit):
         bad = rec.plan.kind == "flood"
-        return SimpleNamespace(violations=["arm moved"] if bad else [], outcome="released", exit_code=0,
-                               exit_line="[launcher] exit 0", detection_s={}, stop_s={})
+        odd = rec.plan.kind == "delay"  # the stop blames the gripper, the fault hit motion
+        return SimpleNamespace(violations=["arm moved"] if bad else [], outcome="protective_stop" if odd else "released",
+                               exit_code=1 if odd else 0, exit_line=SUPERVISOR_STOP if odd else "[launcher] exit 0",
+                               detection_s={}, stop_s={})
 
     monkeypatch.setattr(matrix, "run_with_faults", fake_run)
     monkeypatch.setattr(matrix, "judge", fake_judge)
-    args = ["--runs", "1", "--services", "motion", "--phases", "reach", "--faults-subset", "kill,flood",
+    args = ["--runs", "1", "--services", "motion", "--phases", "reach", "--faults-subset", "kill,delay,flood",
             "--out", str(tmp_path)]
     assert main(args) == 0
     results = json.loads((tmp_path / "matrix.json").read_text())
     flood, kill = results["motion/reach/flood"]["runs"][0], results["motion/reach/kill"]["runs"][0]
+    delay = results["motion/reach/delay"]["runs"][0]
     assert flood["log"] == "matrix_logs/motion-reach-flood-0.log" and "log" not in kill
+    assert delay["log"] == "matrix_logs/motion-reach-delay-0.log"
+    assert delay["unexplained_stop"] == "the stop blames gripper, not the faulted motion"
+    assert "unexplained_stop" not in kill and "unexplained_stop" not in flood
+    assert "UNEXPLAINED STOP: the stop blames gripper" in capsys.readouterr().out
     assert (tmp_path / flood["log"]).read_text().startswith("[launcher] run of flood")
     assert not (tmp_path / "matrix_logs" / "motion-reach-kill-0.log").exists()
-    assert flood["commit"] and flood["wall_s"] >= 0.0
+    assert flood["commit"] and flood["wall_s"] >= 0.0 and flood["load_1m"] >= 0.0
+    assert flood["started_utc"].endswith("+00:00")
     assert "1 runs with an invariant violation" in (tmp_path / "matrix.md").read_text()
     assert main(args) == 0  # resumed: nothing left to do
     assert "0 runs to do" in capsys.readouterr().out
@@ -152,3 +165,29 @@ def test_latencies_measured_by_receive_time_are_left_out():
     text = render(results)
     assert "| kill | 2 | released 2 | 30 / 30, 1 |" in text
     assert "| 2 | 0 | released 2 | 30 / 30 |" in text
+
+
+def test_stop_blames_reads_each_kind_of_exit_line():
+    assert stop_blames(SUPERVISOR_STOP) == "gripper"
+    assert stop_blames(LAUNCHER_STOP) == "supervisor"
+    assert stop_blames(KILLED) == "motion"
+    assert stop_blames("[launcher] exit 0: 1 of 1 episodes released") is None
+    assert stop_blames("[launcher] exit 1: episode 1: failed: pick (lift): the move took longer than 10 s") is None
+    assert stop_blames("") is None
+
+
+def test_a_stop_is_unexplained_when_it_blames_another_service_or_follows_a_harmless_fault():
+    # a frozen motion service, and the supervisor blames the gripper
+    assert unexplained_stop("motion", "freeze", SUPERVISOR_STOP) == "the stop blames gripper, not the faulted motion"
+    assert unexplained_stop("gripper", "freeze", SUPERVISOR_STOP) is None
+    # a delayed motion stream, and the launcher found the supervisor silent
+    assert "blames supervisor" in unexplained_stop("motion", "delay", LAUNCHER_STOP)
+    assert unexplained_stop("supervisor", "freeze", LAUNCHER_STOP) is None
+    assert unexplained_stop("motion", "kill", KILLED) is None
+    flooded = "[launcher] exit 1: episode 1: protective_stop: protective stop: tracker: silent: no perception/human"
+    assert unexplained_stop("tracker", "flood", flooded) == "a flood of garbage ended in a stop"
+    assert unexplained_stop("tracker", "delay", flooded) is None  # a 0.3 s late stream is a stale stream
+    dropped = "[launcher] exit 1: episode 1: protective_stop: protective stop: bridge: silent: no robot/joint_state"
+    assert unexplained_stop("bridge", "drop", dropped) == "half the joint states dropped ended in a stop"
+    assert unexplained_stop("bridge", "delay", dropped) is None
+    assert unexplained_stop("motion", "drop", "[launcher] exit 0: 1 of 1 episodes released") is None
