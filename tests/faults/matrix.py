@@ -13,8 +13,8 @@ or drop that silences a stream may end in a named protective stop). Results accu
 interrupted campaign resumes) and the table is rewritten to ``out/faults/matrix.md`` after
 every run. Cells are filled round by round (every chosen cell gets its 1st run, then its 2nd,
 ...), so a campaign stopped by its budget leaves an even table rather than a few full cells.
-Each run records the commit it ran on, its start (UTC), wall time and the machine's 1-minute
-load at its end; the launcher output of a run that broke an invariant, that ended in a stop its
+Each run records the commit it ran on, its start (UTC), wall time (and how it split into
+start-up, episode and shutdown) and the machine's 1-minute load at its end; the launcher output of a run that broke an invariant, that ended in a stop its
 fault does not explain (`unexplained_stop`) or that the harness could not finish is kept in
 ``out/faults/matrix_logs/<service>-<phase>-<fault>-<seed>.log`` for diagnosis.
 
@@ -104,6 +104,29 @@ def unexplained_stop(service: str, fault: str, exit_line: str) -> str | None:
     if fault == "drop" and service == "bridge":
         return "half the joint states dropped ended in a stop"
     return None
+
+
+def wall_split(lines: list[tuple[float, str]], launched_s: float | None = None) -> dict[str, float]:
+    """Where a run's wall time went, from the launcher's output lines (monotonic receive time,
+    line): ``startup_s`` (`launched_s`, else the first line → "all N services alive"),
+    ``episode_s`` (→ the line before the first "stopped <service>") and ``shutdown_s`` (→ the
+    exit line). Parts whose marks are missing (a run cut short) are left out."""
+    if not lines:
+        return {}
+    first_s = lines[0][0] if launched_s is None else launched_s
+    alive_s = next((t for t, line in lines if line.startswith("[launcher] all ") and " alive " in line), None)
+    stop_at = next((i for i, (_t, line) in enumerate(lines) if line.startswith("[launcher] stopped ")), None)
+    exit_s = next((t for t, line in reversed(lines) if line.startswith("[launcher] exit ")), None)
+    split: dict[str, float] = {}
+    if alive_s is not None:
+        split["startup_s"] = round(alive_s - first_s, 2)
+    if stop_at is not None and stop_at > 0:
+        shutdown_from_s = lines[stop_at - 1][0]
+        if alive_s is not None:
+            split["episode_s"] = round(shutdown_from_s - alive_s, 2)
+        if exit_s is not None:
+            split["shutdown_s"] = round(exit_s - shutdown_from_s, 2)
+    return split
 
 
 def write_atomic(path: Path, text: str) -> None:
@@ -316,7 +339,8 @@ def _campaign(args: argparse.Namespace, results: dict, todo: list[tuple[str, str
             v = judge(rec, strict_exit=False)
             run = {"seed": seed, "violations": v.violations, "outcome": v.outcome,
                    "missed": bool(rec.phases_missed), "exit_code": v.exit_code, "exit_line": v.exit_line,
-                   "detection_s": v.detection_s.get(plan.label), "stop_s": v.stop_s.get(plan.label)}
+                   "detection_s": v.detection_s.get(plan.label), "stop_s": v.stop_s.get(plan.label),
+                   **wall_split(getattr(rec, "lines", []), run_started)}
         run["commit"] = current_commit()  # the checkout this run started (it may move on)
         run["latency_by"] = "stamps"
         run["wall_s"] = round(time.monotonic() - run_started, 2)

@@ -5,7 +5,17 @@ from __future__ import annotations
 import json
 import time
 
-from tests.faults.matrix import main, plan_for, progress, render, round_robin, stop_blames, summary, unexplained_stop
+from tests.faults.matrix import (
+    main,
+    plan_for,
+    progress,
+    render,
+    round_robin,
+    stop_blames,
+    summary,
+    unexplained_stop,
+    wall_split,
+)
 
 CELLS = [("motion", "reach", "kill"), ("motion", "reach", "flood"), ("bridge", "transfer", "freeze")]
 
@@ -191,3 +201,17 @@ def test_a_stop_is_unexplained_when_it_blames_another_service_or_follows_a_harml
     assert unexplained_stop("bridge", "drop", dropped) == "half the joint states dropped ended in a stop"
     assert unexplained_stop("bridge", "delay", dropped) is None
     assert unexplained_stop("motion", "drop", "[launcher] exit 0: 1 of 1 episodes released") is None
+
+
+def test_wall_split_reads_startup_episode_and_shutdown_from_the_launcher_output():
+    lines = [(100.0, "[launcher] bus on tcp/127.0.0.1:4000"),
+             (100.5, "[launcher] started bridge (pid 1)"),
+             (104.25, "[launcher] all 8 services alive 4.20 s after start (4.25 s after launch)"),
+             (111.0, "[launcher]   phases: locate 0.00 s, pick 2.64 s"),
+             (111.25, "[launcher] stopped supervisor (pid 8) with SIGINT: exited with code 0"),
+             (113.0, "[launcher] stopped recorder (pid 2) with SIGINT: exited with code 0"),
+             (113.5, "[launcher] exit 0: 1 of 1 episodes released")]
+    assert wall_split(lines) == {"startup_s": 4.25, "episode_s": 6.75, "shutdown_s": 2.5}
+    assert wall_split(lines[:3]) == {"startup_s": 4.25}  # cut short before the shutdown
+    assert wall_split(lines, launched_s=99.75)["startup_s"] == 4.5
+    assert wall_split([]) == {}
