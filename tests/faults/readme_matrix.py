@@ -10,6 +10,7 @@ as "Not explained yet" until someone has looked at its log and written one.
 
 import functools
 import json
+import statistics
 import subprocess
 from pathlib import Path
 
@@ -49,6 +50,16 @@ ODD_EXPLAIN = {
     "motion/plan/delay#2@04fca9f": _OPERATOR_LOAD,
     "motion/transfer/freeze#1@22ddb36": "The violation above (a starved supervisor; fixed in `904bbe4`).",
 }
+
+
+def _split_text(runs: list[dict]) -> str:
+    """" (start-up X s, episode Y s, shutdown Z s: medians of the N runs that record them)"."""
+    split = [r for r in runs if "shutdown_s" in r and "startup_s" in r and "episode_s" in r]
+    if not split:
+        return ""
+    med = {k: statistics.median(r[k] for r in split) for k in ("startup_s", "episode_s", "shutdown_s")}
+    return (f" (start-up {med['startup_s']:.1f} s, episode {med['episode_s']:.1f} s, shutdown "
+            f"{med['shutdown_s']:.1f} s: medians of the {len(split)} runs that record them)")
 
 
 def main() -> int:
@@ -95,7 +106,7 @@ def main() -> int:
 **Status: {total} of the 2 400 runs ({100 * total / 2400:.0f} %); every one of the 240 cells
 (8 services × 6 phases × 5 faults) has at least {least} run{'s' if least > 1 else ''}. The
 matrix at 10 runs per cell is not finished.** A run is one whole `handover-up` (the handover
-runs in real time), {sum(walls) / len(walls):.1f} s on average on this 2-core machine, so the
+runs in real time), {sum(walls) / len(walls):.1f} s on average on this 2-core machine{_split_text(runs)}, so the
 2 400 runs take about {2400 * sum(walls) / len(walls) / 3600:.1f} h; the campaign fills the
 cells round by round (every cell gets its n-th run before any gets its n+1-th), records every
 run at once and resumes where it stopped, so it is being completed across sessions:
