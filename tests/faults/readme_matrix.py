@@ -43,13 +43,29 @@ EXPLAIN["supervisor/pick/drop#0@ec337ac"] = EXPLAIN["supervisor/locate/drop#0@ec
 #: Why a run ended in a stop that its fault does not explain (same keys as `EXPLAIN`).
 _OPERATOR_LOAD = ("Ran while the operator ran a minute of unit tests (192 tests) beside the campaign on the same "
                   "2 cores, at a load above 10; a service starved for 200-250 ms was judged silent. The "
-                  "operator's mistake, not the stack's; the campaign is paused for any other work since.")
+                  "operator's mistake, not the stack's; since then the campaign is paused for heavy work and "
+                  "light work runs at nice 15-19.")
 ODD_EXPLAIN = {
     "motion/pick/flood#2@04fca9f": _OPERATOR_LOAD,
     "motion/plan/freeze#2@04fca9f": _OPERATOR_LOAD,
     "motion/plan/delay#2@04fca9f": _OPERATOR_LOAD,
     "motion/transfer/freeze#1@22ddb36": "The violation above (a starved supervisor; fixed in `904bbe4`).",
 }
+
+
+def _late_liveliness_text(runs: list[dict]) -> str:
+    """A sentence on the kill runs whose death was first seen by a freshness watchdog: the
+    liveliness token's loss had not reached the supervisor within the 0.2 s stream time-out."""
+    late = [r for r in runs if r["key"].endswith("/kill") and "silent" in (r["exit_line"] or "")
+            and "protective stop: " + r["key"].split("/")[0] + ":" in (r["exit_line"] or "")]
+    if not late:
+        return ""
+    names = ", ".join(f"`{r['key']}` run {r['seed'] + 1} (`{r['commit']}`)" for r in late)
+    return (f" In {len(late)} kill run{'s' if len(late) > 1 else ''} ({names}) the death was first seen as "
+            "silence (the 0.2 s stream or 0.25 s heartbeat time-out), i.e. the liveliness token's loss had not "
+            "reached the supervisor by then. The Zenoh router is hosted in the launcher's Python process and "
+            "its liveliness watcher there is a Python callback; whether a routing thread waiting for that "
+            "process's GIL on a loaded machine delays the token's loss is the open lead.")
 
 
 def _split_text(runs: list[dict]) -> str:
@@ -149,7 +165,7 @@ Since the supervisor learned to take queued messages in when its own loop was la
 (`904bbe4`), {len(odd_since_fix)} of {since_fix} runs ended in such a stop{" (" + ", ".join(f"`{k}`" for k in odd_since_fix) + ")" if odd_since_fix else ""}.
 Kill detection above the 100 ms target: {", ".join(f"`{r['key']}` {r['detection_s'] * 1e3:.0f} ms" for r in runs if r["key"].endswith("/kill") and r.get("latency_by") == "stamps" and (r.get("detection_s") or 0) > 0.1 and not r["key"].startswith("recorder"))}
 (of {sum(1 for r in runs if r["key"].endswith("/kill") and r.get("latency_by") == "stamps" and r.get("detection_s") is not None and not r["key"].startswith("recorder"))} stamped kill runs of critical services), with the campaign's
-observer beside the stack.
+observer beside the stack.{_late_liveliness_text(runs)}
 
 A 0.3 s delay of the bridge's `robot/joint_state` ends in a protective stop (`bridge:
 silent: no robot/joint_state`) by design: a stream 0.3 s late is a stale stream.
