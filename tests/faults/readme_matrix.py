@@ -14,7 +14,7 @@ import statistics
 import subprocess
 from pathlib import Path
 
-from tests.faults.matrix import FAULTS, PHASES, SERVICES, progress, render, summary, unexplained_stop
+from tests.faults.matrix import FAULTS, PHASES, SERVICES, progress, render, stop_blames, summary, unexplained_stop
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -57,7 +57,7 @@ def _late_liveliness_text(runs: list[dict]) -> str:
     """A sentence on the kill runs whose death was first seen by a freshness watchdog: the
     liveliness token's loss had not reached the supervisor within the 0.2 s stream time-out."""
     late = [r for r in runs if r["key"].endswith("/kill") and "silent" in (r["exit_line"] or "")
-            and "protective stop: " + r["key"].split("/")[0] + ":" in (r["exit_line"] or "")]
+            and stop_blames(r["exit_line"] or "") == r["key"].split("/")[0]]
     if not late:
         return ""
     names = ", ".join(f"`{r['key']}` run {r['seed'] + 1} (`{r['commit']}`)" for r in late)
