@@ -25,6 +25,9 @@ log = logging.getLogger(__name__)
 #: starved: before calling a service silent it lets queued messages in for `SELF_STALL_SETTLE_S`.
 SELF_STALL_S = 0.05
 SELF_STALL_SETTLE_S = 0.01
+#: A loop iteration this much late is logged even when nobody looked silent: the release
+#: interrupt and every watchdog waited that long (at most one line per 5 s).
+SELF_STALL_REPORT_S = 0.2
 
 SERVICE_NAME = "supervisor"
 #: Data streams whose silence means their service is silent (topic → owner): fixed-rate
@@ -139,6 +142,12 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                     time.sleep(SELF_STALL_SETTLE_S)
                     take_inputs()
                     now = time.monotonic()
+                elif stalled_s > SELF_STALL_REPORT_S:
+                    # Late, but the callback threads had already let everything in: nothing to
+                    # wait for, still worth saying (the release interrupt waited this long too).
+                    stall_log.warning("stall", f"supervisor loop was {stalled_s * 1e3:.0f} ms late "
+                                               "(starved of CPU?); no service looked silent",
+                                      late_ms=round(stalled_s * 1e3))
                 for fault in watchdog.check(now):
                     critical = config.watch.get(fault.service, "critical") == "critical"
                     log.warning("service fault", extra=kv(service=fault.service, what=fault.what,

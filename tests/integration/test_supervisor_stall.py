@@ -39,7 +39,10 @@ def test_a_starved_supervisor_takes_queued_messages_in_before_judging(bus):
             time.sleep(0.6)
         log = supervisor.log_text()
         assert "service fault service=bridge" not in log, log[-2000:]
-        assert "supervisor loop was" in log  # it knew it had been stalled
+        # It knew it had been stalled. Whether it also had to take queued messages in depends
+        # on which thread ran first after SIGCONT (its callbacks may already have let the
+        # bridge's messages in): either way the stall is logged, and nobody is called silent.
+        assert "supervisor loop was" in log, log[-2000:]
         # The same pause of the bridge is a real silence, and is reported.
         _pause(bridge, 0.5)
         time.sleep(0.3)
