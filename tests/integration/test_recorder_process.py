@@ -12,7 +12,7 @@ import pytest
 
 from bus_schema import topics
 from services.recorder.readback import entity_row_counts, read_scalars
-from services.runtime.testing import ServiceProcess, wait_alive
+from services.runtime.testing import ServiceProcess, wait_alive, wait_until
 
 pytestmark = pytest.mark.integration
 
@@ -65,8 +65,11 @@ def test_recording_readable_after_sigkill(bus, make_node, tmp_path):
     out = tmp_path / "killed.rrd"
     with ServiceProcess("services.recorder", profile, ["--output", str(out), "--no-urdf"]) as rec:
         wait_alive(router, profile, {"recorder"})
+        # The token goes up before Rerun is imported and the file opened (0.8-3 s on a loaded
+        # machine): until then messages only queue, and a kill would lose them all.
+        assert wait_until(lambda: "recording output=" in rec.log_text(), 30.0), rec.log_text()
         _publish_forces(make_node(), 150)
-        time.sleep(0.6)  # more than one 250 ms flush period
+        time.sleep(0.6)  # several 100 ms flush periods
         rec.proc.send_signal(signal.SIGKILL)
         rec.proc.wait(10)
     values = read_scalars(out, "/bus/sensors/wrist_wrench/force_n/0")["/bus/sensors/wrist_wrench/force_n/0"][1]
