@@ -31,5 +31,10 @@ def test_a_release_during_the_reach_stops_the_moving_arm():
     for s in samples:
         assert s.speed_at_release_rad_s >= MOVING_RAD_S  # the arm was moving
         assert s.event_to_stop_s is not None and s.event_to_released_state_s is not None, s
-        assert s.event_to_rest_s is not None and s.event_to_rest_s <= GENEROUS_BOUND_S, s
-        assert s.event_to_stop_s <= s.event_to_rest_s + 0.02, s  # the stop came first (within a tick)
+        assert s.event_to_rest_s is not None, s
+        # Timing and order by the senders' stamps where recorded: this test process may itself
+        # be starved, which delays and reorders what it receives from different senders.
+        to_stop_s = s.stamp_event_to_stop_s if s.stamp_event_to_stop_s is not None else s.event_to_stop_s
+        to_rest_s = s.stamp_event_to_rest_s if s.stamp_event_to_rest_s is not None else s.event_to_rest_s
+        assert to_rest_s <= GENEROUS_BOUND_S, s
+        assert to_stop_s <= to_rest_s + 0.02, s  # the stop came first (within a tick)
