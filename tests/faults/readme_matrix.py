@@ -56,7 +56,17 @@ _ROUTER_QUIET = (_OPERATOR_LOAD_6 + " Unlike a starved supervisor, its loop was 
                  "GIL; but a process hosting a router and a Python-callback subscriber, its GIL held for 1.3 s "
                  "at a time, delayed messages between two other processes by 53 ms at most (18 ms in a second "
                  "run, 23 and 16 ms without the subscriber).")
+_STARVED_TRACKER = ("Nothing else ran beside the campaign. Only the tracker fell silent (no heartbeat for 0.25 s), "
+                    "0.2 s into the episode, when motion planned its first goal, the bridge reset the scene and "
+                    "the recorder (nice 10) was still importing Rerun; the supervisor's own loop was on time. The "
+                    "tracker runs at nice 5, below the safety services, and its heartbeat thread needs its "
+                    "process's GIL: on two saturated cores it was starved, not frozen. The supervisor cannot tell "
+                    "the two apart within the 0.25 s the issue allows, and a silent critical service is a "
+                    "protective stop, so the stop is right for what it saw; the margin is thin on this machine "
+                    "(see 'False protective stops under heavy load' in the findings). 1 such stop in about 800 "
+                    "runs since the stall fix.")
 ODD_EXPLAIN = {
+    "recorder/pick/delay#5@cc60dd8": _STARVED_TRACKER,
     "kinect/pick/drop#4@cc60dd8": _OPERATOR_LOAD_6,
     "kinect/plan/delay#4@cc60dd8": _OPERATOR_LOAD_6 + (" The supervisor logged its own loop 246 ms late: it was "
                                                        "starved, and the launcher rightly called it silent."),
