@@ -63,8 +63,8 @@ _STARVED_TRACKER = ("Nothing else ran beside the campaign. Only the tracker fell
                     "process's GIL: on two saturated cores it was starved, not frozen. The supervisor cannot tell "
                     "the two apart within the 0.25 s the issue allows, and a silent critical service is a "
                     "protective stop, so the stop is right for what it saw; the margin is thin on this machine "
-                    "(see 'False protective stops under heavy load' in the findings). 1 such stop in about 800 "
-                    "runs since the stall fix.")
+                    "(see 'False protective stops under heavy load' in the findings). The first such stop in about 800 "
+                    "runs without the operator's load since the stall fix.")
 ODD_EXPLAIN = {
     "recorder/pick/delay#5@cc60dd8": _STARVED_TRACKER,
     "kinect/pick/drop#4@cc60dd8": _OPERATOR_LOAD_6,
