@@ -106,6 +106,16 @@ def unexplained_stop(service: str, fault: str, exit_line: str) -> str | None:
     return None
 
 
+def stopped_before_the_fault(rec, plans: list[FaultPlan]) -> str | None:
+    """The launcher's exit line when a run (`RunRecord`) ended before any of `plans` was
+    injected, in a stop that blames a service none of the plans touches for being silent (a
+    process starved of CPU); None otherwise."""
+    blamed = stop_blames(rec.exit_line)
+    if rec.injections or not rec.phases_missed or blamed is None or "silent" not in rec.exit_line:
+        return None
+    return None if blamed in {p.service for p in plans} else rec.exit_line
+
+
 def wall_split(lines: list[tuple[float, str]], launched_s: float | None = None) -> dict[str, float]:
     """Where a run's wall time went, from the launcher's output lines (monotonic receive time,
     line): ``startup_s`` (`launched_s`, else the first line → "all N services alive"),

@@ -13,7 +13,10 @@ CI set (15 runs, ~20 s each):
   to the end of the first of these runs (a hung recorder must not hold the bus back) and
   killed at the transfer entry in the second.
 
-Each run is judged by `invariants.judge`: never dropped, no motion after a protective stop or
+A stack stopped by the watchdog before any fault was injected, blaming the silence of a
+service no fault touches (a process starved of CPU on 2 cores; the full matrix's
+"unexplained stops"), says nothing about the faults: it is run once more, reported on stdout
+and in its JSON; a second such stop fails. Each run is judged by `invariants.judge`: never dropped, no motion after a protective stop or
 a release, the fault named in the summary or the exit line, exit 1 with the reason for a
 critical service and 0 otherwise. Latencies go to ``out/faults/ci/<run>.json``.
 """
@@ -28,6 +31,7 @@ import pytest
 
 from tests.faults.harness import run_with_faults
 from tests.faults.invariants import FaultPlan, judge
+from tests.faults.matrix import stopped_before_the_fault
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(180)]
 
@@ -45,7 +49,7 @@ TOLERATED_DELAY_S = {"gripper/release": 0.05, "motion/stop": 0.05, "robot/joint_
 TOLERATED_DROP_P = 0.3
 
 
-def _save(name: str, rec, verdict) -> None:
+def _save(name: str, rec, verdict, stopped_before_the_fault: str | None = None) -> None:
     OUT.mkdir(parents=True, exist_ok=True)
     doc = {
         "run": name,
@@ -59,14 +63,21 @@ def _save(name: str, rec, verdict) -> None:
         "violations": verdict.violations,
         "detection_s": verdict.detection_s,
         "stop_s": verdict.stop_s,
+        "first_stack_stopped_before_the_fault": stopped_before_the_fault,
     }
     (OUT / f"{name}.json").write_text(json.dumps(doc, indent=2))
 
 
 def _run(name: str, plans: list[FaultPlan], receiver: str, tmp_path: Path):
     rec = run_with_faults(plans, receiver=receiver, log_path=tmp_path / f"{name}.log")
+    starved = stopped_before_the_fault(rec, plans)
+    if starved is not None:
+        # One more stack, once: the faults under test were never injected, so this run says
+        # nothing about them. Reported on stdout and in the run's JSON; a second such stop fails.
+        print(f"{name}: stack stopped before the fault ({starved}); running it once more")
+        rec = run_with_faults(plans, receiver=receiver, log_path=tmp_path / f"{name}-again.log")
     verdict = judge(rec)
-    _save(name, rec, verdict)
+    _save(name, rec, verdict, stopped_before_the_fault=starved)
     log_tail = "\n".join(line for _t, line in rec.lines if line.startswith("[launcher]"))[-3000:]
     assert not rec.phases_missed, f"faults not injected (phase never reached): {rec.phases_missed}\n{log_tail}"
     assert verdict.ok, "\n".join(verdict.violations) + "\n" + log_tail

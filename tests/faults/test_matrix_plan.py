@@ -12,6 +12,7 @@ from tests.faults.matrix import (
     render,
     round_robin,
     stop_blames,
+    stopped_before_the_fault,
     summary,
     unexplained_stop,
     wall_split,
@@ -215,3 +216,22 @@ def test_wall_split_reads_startup_episode_and_shutdown_from_the_launcher_output(
     assert wall_split(lines[:3]) == {"startup_s": 4.25}  # cut short before the shutdown
     assert wall_split(lines, launched_s=99.75)["startup_s"] == 4.5
     assert wall_split([]) == {}
+
+
+def test_a_run_stopped_by_a_starved_service_before_its_fault_is_told_apart():
+    from tests.faults.invariants import FaultPlan, RunRecord
+
+    plans = [FaultPlan("freeze", "tracker", "transfer", offset_s=0.3, duration_s=1.0)]
+    starved = "[launcher] exit 1: episode 1: protective_stop: protective stop: gripper: silent: no heartbeat for 0.252 s"
+    rec = RunRecord(receiver="absent", exit_line=starved, phases_missed=["freeze tracker @ transfer"])
+    assert stopped_before_the_fault(rec, plans) == starved
+    # The faulted service itself silent before its fault: not a starved bystander, no second run.
+    own = starved.replace("gripper:", "tracker:")
+    assert stopped_before_the_fault(RunRecord(receiver="absent", exit_line=own, phases_missed=["x"]), plans) is None
+    # A stop that is no silence (a process gone), or a run whose fault was injected, or one that
+    # reached its phase: judged as it is.
+    gone = starved.replace("silent: no heartbeat for 0.252 s", "process gone (liveliness token lost)")
+    assert stopped_before_the_fault(RunRecord(receiver="absent", exit_line=gone, phases_missed=["x"]), plans) is None
+    injected = RunRecord(receiver="absent", exit_line=starved, phases_missed=["x"], injections=[object()])
+    assert stopped_before_the_fault(injected, plans) is None
+    assert stopped_before_the_fault(RunRecord(receiver="absent", exit_line=starved), plans) is None
