@@ -16,7 +16,9 @@ CI set (15 runs, ~20 s each):
 A stack stopped by the watchdog before any fault was injected, blaming the silence of a
 service no fault touches (a process starved of CPU on 2 cores; the full matrix's
 "unexplained stops"), says nothing about the faults: it is run once more, reported on stdout
-and in its JSON; a second such stop fails. Each run is judged by `invariants.judge`: never dropped, no motion after a protective stop or
+and in its JSON; a second such stop fails.
+
+Each run is judged by `invariants.judge`: never dropped, no motion after a protective stop or
 a release, the fault named in the summary or the exit line, exit 1 with the reason for a
 critical service and 0 otherwise. Latencies go to ``out/faults/ci/<run>.json``.
 """
