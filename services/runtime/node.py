@@ -34,6 +34,7 @@ from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile, zenoh_config
 from services.runtime.stamps import SENDER_CLOCK
+from services.runtime.starvation import late_wake_report, sample_wake
 
 #: Period of every service's heartbeat (`runtime/heartbeat`), s.
 HEARTBEAT_PERIOD_S = 0.05
@@ -249,7 +250,8 @@ class ServiceNode:
     `HEARTBEAT_PERIOD_S`) while the process runs, so a frozen (SIGSTOP) or dead process falls
     silent at once while a long computation in the main loop (a reach plan, a depth frame on a
     loaded machine) does not look like a fault; a stalled main loop shows in the freshness of
-    the service's own data streams instead. `HANDOVER_FAULTS` rules for this
+    the service's own data streams instead. A heartbeat thread that wakes more than 0.1 s late
+    logs why (`services.runtime.starvation`: no CPU, or no GIL). `HANDOVER_FAULTS` rules for this
     service (`services.runtime.faults`) delay or drop its publications (fault tests only).
     """
 
@@ -368,8 +370,16 @@ class ServiceNode:
             self._wake.notify_all()
 
     def _beat_forever(self) -> None:
-        while not self.stop_event.wait(HEARTBEAT_PERIOD_S / 2):
+        period_s = HEARTBEAT_PERIOD_S / 2
+        late_log = RateLimitedLog(log, 1.0)
+        previous = sample_wake()
+        while not self.stop_event.wait(period_s):
+            now = sample_wake()
             self.heartbeat()
+            late = late_wake_report(previous, now, period_s)
+            if late is not None:  # says whether the process lacked CPU or the GIL
+                late_log.warning("late heartbeat", f"{self.name}: {late}")
+            previous = now
 
     def heartbeat(self) -> None:
         """Send the heartbeat if it is due (cheap to call often; any thread)."""

@@ -379,6 +379,28 @@ def _as_spec(name: str, table: Any, path: Path) -> ServiceSpec:
     )
 
 
+def _check_niced_services_are_report_only(services: tuple[ServiceSpec, ...], path: Path) -> None:
+    """A service the supervisor watches as critical must keep nice = 0.
+
+    The supervisor makes a protective stop when a critical service's heartbeat is 0.25 s old.
+    The heartbeat thread needs its process's GIL; in a niced process the main thread that holds
+    it is preempted more often and for longer, so a live service falls silent that long (three
+    false stops blamed the nice-5 tracker, README "Why these priorities"). Only services whose
+    loss is reported (``watch = "report"``, e.g. the recorder) may be niced."""
+    supervisor = next((s for s in services if s.name == "supervisor" and s.enabled), None)
+    if supervisor is None:
+        return
+    watch = supervisor.config.get("watch", {"recorder": "report"})
+    if not isinstance(watch, dict):
+        return  # the supervisor's own config check names the bad table
+    for spec in services:
+        if spec.nice != 0 and spec.enabled and watch.get(spec.name, "critical") != "report":
+            raise ProfileError(
+                f"{path}: services.{spec.name}.nice = {spec.nice}, but the supervisor watches {spec.name} as "
+                f"critical (a silent {spec.name} is a protective stop): keep nice = 0, or set "
+                f"services.supervisor.config.watch.{spec.name} = \"report\"")
+
+
 def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
     """Load and validate a deploy profile by name or path.
 
@@ -412,6 +434,8 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
         raise ProfileError(f"{path}: bus.allow_non_loopback = true needs [bus.auth] (user/password per service)")
     if access_control is not None and auth is None:
         raise ProfileError(f"{path}: [bus.access_control] names users, so it needs [bus.auth]")
+    services = tuple(_as_spec(name, table, path) for name, table in services_table.items())
+    _check_niced_services_are_report_only(services, path)
     return Profile(
         path=path,
         endpoint=endpoint,
@@ -420,7 +444,7 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
         zenoh_overrides=overrides,
         auth=auth,
         access_control=access_control,
-        services=tuple(_as_spec(name, table, path) for name, table in services_table.items()),
+        services=services,
         launcher=dict(doc.get("launcher", {})),
         raw=doc,
     )

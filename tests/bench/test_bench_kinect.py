@@ -1,7 +1,7 @@
 """Simulated Kinect: cost of one frame (depth rendering, noise, skeleton), on this machine.
 
-The Kinect renders 320×240 depth at 30 Hz in its own process, at nice 5 beside the safety
-services on two cores, so its CPU time is the stack's largest single share. Measured here:
+The Kinect renders 320×240 depth at 30 Hz in its own process beside the safety services
+on two cores, so its CPU time is the stack's largest single share. Measured here:
 `KinectSim.step` (the whole frame), its depth render with the static scene (floor and table)
 cast once and drawn behind (what `step` does), and the baseline measured in the same run:
 the same render casting the whole scene every frame. Writes out/bench/kinect.json.

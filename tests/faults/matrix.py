@@ -109,9 +109,9 @@ def unexplained_stop(service: str, fault: str, exit_line: str) -> str | None:
 def stopped_before_the_fault(rec, plans: list[FaultPlan]) -> str | None:
     """The launcher's exit line when a run (`RunRecord`) ended before any of `plans` was
     injected, in a stop that blames a service none of the plans touches for being silent (a
-    process starved of CPU); None otherwise."""
+    process starved of CPU); None otherwise. With no plans: any stop blaming a silent service."""
     blamed = stop_blames(rec.exit_line)
-    if rec.injections or not rec.phases_missed or blamed is None or "silent" not in rec.exit_line:
+    if rec.injections or (plans and not rec.phases_missed) or blamed is None or "silent" not in rec.exit_line:
         return None
     return None if blamed in {p.service for p in plans} else rec.exit_line
 

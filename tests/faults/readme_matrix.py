@@ -64,7 +64,9 @@ _STARVED_TRACKER = ("Nothing else ran beside the campaign. Only the tracker fell
                     "the two apart within the 0.25 s the issue allows, and a silent critical service is a "
                     "protective stop, so the stop is right for what it saw; the margin is thin on this machine "
                     "(see 'False protective stops under heavy load' in the findings). The first such stop in about 800 "
-                    "runs without the operator's load since the stall fix.")
+                    "runs without the operator's load since the stall fix. Since the seventh session the tracker, "
+                    "planner and Kinect run at nice 0, and a late heartbeat thread logs whether it lacked the CPU or "
+                    "the GIL ('Why these priorities').")
 ODD_EXPLAIN = {
     "recorder/pick/delay#5@cc60dd8": _STARVED_TRACKER,
     "kinect/pick/drop#4@cc60dd8": _OPERATOR_LOAD_6,

@@ -235,3 +235,13 @@ def test_a_run_stopped_by_a_starved_service_before_its_fault_is_told_apart():
     injected = RunRecord(receiver="absent", exit_line=starved, phases_missed=["x"], injections=[object()])
     assert stopped_before_the_fault(injected, plans) is None
     assert stopped_before_the_fault(RunRecord(receiver="absent", exit_line=starved), plans) is None
+
+
+def test_a_run_without_faults_stopped_by_a_silent_service_is_told_apart():
+    from tests.faults.invariants import RunRecord
+
+    starved = "[launcher] exit 1: episode 1: protective_stop: protective stop: tracker: silent: no heartbeat for 0.252 s"
+    assert stopped_before_the_fault(RunRecord(receiver="dropping", exit_line=starved), []) == starved
+    gone = starved.replace("silent: no heartbeat for 0.252 s", "process gone (liveliness token lost)")
+    assert stopped_before_the_fault(RunRecord(receiver="dropping", exit_line=gone), []) is None
+    assert stopped_before_the_fault(RunRecord(receiver="dropping", exit_line="[launcher] exit 0: 1 episode(s)"), []) is None
