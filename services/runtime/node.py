@@ -34,7 +34,7 @@ from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile, zenoh_config
 from services.runtime.stamps import SENDER_CLOCK
-from services.runtime.starvation import late_wake_report, sample_wake
+from services.runtime.starvation import LATE_WAKE_WARNING_S, late_s, late_wake_report, sample_wake
 
 #: Period of every service's heartbeat (`runtime/heartbeat`), s.
 HEARTBEAT_PERIOD_S = 0.05
@@ -251,7 +251,8 @@ class ServiceNode:
     silent at once while a long computation in the main loop (a reach plan, a depth frame on a
     loaded machine) does not look like a fault; a stalled main loop shows in the freshness of
     the service's own data streams instead. A heartbeat thread that wakes more than 0.1 s late
-    logs why (`services.runtime.starvation`: no CPU, or no GIL). `HANDOVER_FAULTS` rules for this
+    logs why (`services.runtime.starvation`: no CPU, or no GIL; a warning from 0.2 s, at most
+    one line per 5 s). `HANDOVER_FAULTS` rules for this
     service (`services.runtime.faults`) delay or drop its publications (fault tests only).
     """
 
@@ -371,14 +372,15 @@ class ServiceNode:
 
     def _beat_forever(self) -> None:
         period_s = HEARTBEAT_PERIOD_S / 2
-        late_log = RateLimitedLog(log, 1.0)
+        late_log = RateLimitedLog(log, 5.0)
         previous = sample_wake()
         while not self.stop_event.wait(period_s):
             now = sample_wake()
             self.heartbeat()
-            late = late_wake_report(previous, now, period_s)
-            if late is not None:  # says whether the process lacked CPU or the GIL
-                late_log.warning("late heartbeat", f"{self.name}: {late}")
+            report = late_wake_report(previous, now, period_s)
+            if report is not None:  # says whether the process lacked CPU or the GIL
+                warn = late_s(previous, now, period_s) >= LATE_WAKE_WARNING_S
+                late_log.log(logging.WARNING if warn else logging.INFO, "late heartbeat", f"{self.name}: {report}")
             previous = now
 
     def heartbeat(self) -> None:

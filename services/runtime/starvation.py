@@ -5,8 +5,9 @@ The supervisor calls a service silent when its heartbeat (20 Hz, sent from its o
 
 - **starved of CPU**: the thread was runnable but waited on the kernel's run queue (the
   machine is overloaded, or the process's niceness puts it behind busier ones);
-- **starved of the GIL**: the thread got CPU time but waited for Python's interpreter lock
-  while another thread of the process ran a long computation holding it.
+- **starved of the GIL**: the thread was not on the run queue but waited for Python's
+  interpreter lock while another thread of the process held it (a long computation, or a
+  blocking call such as an import's disk reads).
 
 Linux keeps, per thread, the time spent running and the time spent waiting on the run queue
 (``/proc/thread-self/schedstat``: on-CPU ns, run-queue wait ns, time slices). Sampled at every
@@ -23,6 +24,9 @@ from pathlib import Path
 
 #: A heartbeat thread that wakes this much after it meant to is reported, s (two beats).
 LATE_WAKE_REPORT_S = 0.1
+#: ... and reported as a warning from this lateness on, s (the supervisor calls a critical
+#: service silent when its last heartbeat is 0.25 s old).
+LATE_WAKE_WARNING_S = 0.2
 
 _SCHEDSTAT = Path("/proc/thread-self/schedstat")
 
@@ -62,6 +66,11 @@ def sample_wake() -> WakeSample:
     return WakeSample(time.monotonic(), queue_wait_s, t.user + t.system)
 
 
+def late_s(previous: WakeSample, now: WakeSample, expected_gap_s: float) -> float:
+    """How much later than `expected_gap_s` after `previous` the thread woke at `now`, s."""
+    return (now.monotonic_s - previous.monotonic_s) - expected_gap_s
+
+
 def late_wake_report(previous: WakeSample, now: WakeSample, expected_gap_s: float,
                      report_s: float = LATE_WAKE_REPORT_S) -> str | None:
     """One line saying why a thread that meant to wake `expected_gap_s` after `previous`
@@ -70,17 +79,17 @@ def late_wake_report(previous: WakeSample, now: WakeSample, expected_gap_s: floa
     Of the time the thread was late, the part it spent on the run queue is CPU starvation;
     the rest it was runnable-and-running or waiting for a lock, which for a Python thread
     that only sleeps and sends is the GIL."""
-    late_s = (now.monotonic_s - previous.monotonic_s) - expected_gap_s
-    if late_s <= report_s:
+    late = late_s(previous, now, expected_gap_s)
+    if late <= report_s:
         return None
     cpu_ms = 1000.0 * max(0.0, now.process_cpu_s - previous.process_cpu_s)
-    head = f"heartbeat thread woke {1000.0 * late_s:.0f} ms late"
+    head = f"heartbeat thread woke {1000.0 * late:.0f} ms late"
     if previous.queue_wait_s is None or now.queue_wait_s is None:
         return f"{head} (process used {cpu_ms:.0f} ms of CPU meanwhile; run-queue wait unknown)"
     queued_s = max(0.0, now.queue_wait_s - previous.queue_wait_s)
-    if queued_s >= 0.5 * late_s:
+    if queued_s >= 0.5 * late:
         cause = "starved of CPU: the machine is overloaded or this process's niceness is too high"
     else:
-        cause = "held up by its own process (the GIL held by a long computation)"
+        cause = "held up inside its own process (another thread held the GIL: a long computation or a blocking call)"
     return (f"{head}: {1000.0 * queued_s:.0f} ms waiting for a CPU, process used {cpu_ms:.0f} ms of CPU "
             f"meanwhile; {cause}")
