@@ -1,18 +1,23 @@
-"""Why a service's heartbeat thread woke late: no CPU, or no GIL (pure but for `/proc` reads).
+"""Why a service's heartbeat thread woke late (pure but for `/proc` reads).
 
 The supervisor calls a service silent when its heartbeat (20 Hz, sent from its own thread) is
-0.25 s old. A live process can fall that silent in two ways, and they need different fixes:
+0.25 s old. A live process can fall that silent in several ways, and they need different fixes:
 
 - **starved of CPU**: the thread was runnable but waited on the kernel's run queue (the
   machine is overloaded, or the process's niceness puts it behind busier ones);
-- **starved of the GIL**: the thread was not on the run queue but waited for Python's
-  interpreter lock while another thread of the process held it (a long computation, or a
-  blocking call such as an import's disk reads).
+- **the machine paused**: the virtual machine's CPUs were taken by its host (*steal* time in
+  ``/proc/stat``): every process is late at once, none of them waiting or running;
+- **starved of the GIL by a computation**: another thread of the process ran (the process
+  used CPU) while holding Python's interpreter lock;
+- **blocked**: the thread neither waited for a CPU nor did its process run: another thread
+  held the GIL across a blocking call (an import's disk reads), or the machine paused in a way
+  the kernel did not count as steal.
 
 Linux keeps, per thread, the time spent running and the time spent waiting on the run queue
-(``/proc/thread-self/schedstat``: on-CPU ns, run-queue wait ns, time slices). Sampled at every
-wake-up, the run-queue wait over a late gap tells the two apart; `late_wake_report` turns the
-samples into the one line the service logs, so the next false "silent" names its cause.
+(``/proc/thread-self/schedstat``: on-CPU ns, run-queue wait ns, time slices), and machine-wide
+steal time (``/proc/stat``). Sampled at every wake-up (about 50 µs), they tell these apart;
+`late_wake_report` turns two samples into the one line the service logs, so the next false
+"silent" names its cause.
 """
 
 from __future__ import annotations
@@ -29,6 +34,9 @@ LATE_WAKE_REPORT_S = 0.1
 LATE_WAKE_WARNING_S = 0.2
 
 _SCHEDSTAT = Path("/proc/thread-self/schedstat")
+_STAT = Path("/proc/stat")
+_CLOCK_TICKS_PER_S = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+_CPUS = os.cpu_count() or 1
 
 
 @dataclass(frozen=True)
@@ -40,11 +48,14 @@ class WakeSample:
         queue_wait_s: the thread's total run-queue wait so far, s (None where the kernel
             does not say).
         process_cpu_s: the process's CPU time so far (all threads, user + system), s.
+        steal_s: the machine's steal time so far, per CPU, s (time its virtual CPUs were
+            taken by the host; None where the kernel does not say).
     """
 
     monotonic_s: float
     queue_wait_s: float | None
     process_cpu_s: float
+    steal_s: float | None = None
 
 
 def parse_schedstat(text: str) -> float | None:
@@ -56,14 +67,33 @@ def parse_schedstat(text: str) -> float | None:
     return int(fields[1]) / 1e9
 
 
+def parse_steal(first_line: str, ticks_per_s: float = _CLOCK_TICKS_PER_S, cpus: int = _CPUS) -> float | None:
+    """Steal time per CPU, s, from the first line of ``/proc/stat``
+    (``cpu user nice system idle iowait irq softirq steal …`` in clock ticks, all CPUs
+    summed); None when the line is not that."""
+    fields = first_line.split()
+    if len(fields) < 9 or fields[0] != "cpu" or not fields[8].isdigit():
+        return None
+    return int(fields[8]) / ticks_per_s / max(1, cpus)
+
+
+def _read_first_line(path: Path) -> str:
+    with path.open() as f:
+        return f.readline()
+
+
 def sample_wake() -> WakeSample:
     """This thread's `WakeSample` now."""
     try:
         queue_wait_s = parse_schedstat(_SCHEDSTAT.read_text())
     except OSError:
         queue_wait_s = None
+    try:
+        steal_s = parse_steal(_read_first_line(_STAT))
+    except OSError:
+        steal_s = None
     t = os.times()
-    return WakeSample(time.monotonic(), queue_wait_s, t.user + t.system)
+    return WakeSample(time.monotonic(), queue_wait_s, t.user + t.system, steal_s)
 
 
 def late_s(previous: WakeSample, now: WakeSample, expected_gap_s: float) -> float:
@@ -71,25 +101,38 @@ def late_s(previous: WakeSample, now: WakeSample, expected_gap_s: float) -> floa
     return (now.monotonic_s - previous.monotonic_s) - expected_gap_s
 
 
+def _delta(a: float | None, b: float | None) -> float | None:
+    return None if a is None or b is None else max(0.0, b - a)
+
+
 def late_wake_report(previous: WakeSample, now: WakeSample, expected_gap_s: float,
                      report_s: float = LATE_WAKE_REPORT_S) -> str | None:
     """One line saying why a thread that meant to wake `expected_gap_s` after `previous`
     woke at `now` late by more than `report_s`; None when it was not that late.
 
-    Of the time the thread was late, the part it spent on the run queue is CPU starvation;
-    the rest it was runnable-and-running or waiting for a lock, which for a Python thread
-    that only sleeps and sends is the GIL."""
+    The first of these that covers at least half of the lateness names the cause: the
+    thread's run-queue wait (no CPU), the machine's steal time (the host paused the VM), the
+    process's CPU time (another thread computing with the GIL); else the thread was blocked."""
     late = late_s(previous, now, expected_gap_s)
     if late <= report_s:
         return None
-    cpu_ms = 1000.0 * max(0.0, now.process_cpu_s - previous.process_cpu_s)
-    head = f"heartbeat thread woke {1000.0 * late:.0f} ms late"
-    if previous.queue_wait_s is None or now.queue_wait_s is None:
-        return f"{head} (process used {cpu_ms:.0f} ms of CPU meanwhile; run-queue wait unknown)"
-    queued_s = max(0.0, now.queue_wait_s - previous.queue_wait_s)
-    if queued_s >= 0.5 * late:
+    cpu_s = max(0.0, now.process_cpu_s - previous.process_cpu_s)
+    queued_s = _delta(previous.queue_wait_s, now.queue_wait_s)
+    stolen_s = _delta(previous.steal_s, now.steal_s)
+    parts = [f"heartbeat thread woke {1000.0 * late:.0f} ms late:"]
+    parts.append("run-queue wait unknown," if queued_s is None else f"{1000.0 * queued_s:.0f} ms waiting for a CPU,")
+    if stolen_s is not None:
+        parts.append(f"{1000.0 * stolen_s:.0f} ms stolen by the host,")
+    parts.append(f"process used {1000.0 * cpu_s:.0f} ms of CPU meanwhile;")
+    if queued_s is not None and queued_s >= 0.5 * late:
         cause = "starved of CPU: the machine is overloaded or this process's niceness is too high"
+    elif stolen_s is not None and stolen_s >= 0.5 * late:
+        cause = "the machine paused: the host took its virtual CPUs (steal time)"
+    elif cpu_s >= 0.5 * late:
+        cause = "held up inside its own process: another thread computed holding the GIL"
+    elif queued_s is None:
+        cause = "cause unknown (no run-queue figures on this kernel)"
     else:
-        cause = "held up inside its own process (another thread held the GIL: a long computation or a blocking call)"
-    return (f"{head}: {1000.0 * queued_s:.0f} ms waiting for a CPU, process used {cpu_ms:.0f} ms of CPU "
-            f"meanwhile; {cause}")
+        cause = ("blocked: neither waiting for a CPU nor running (the GIL held across a blocking call, "
+                 "or a pause of the whole machine)")
+    return " ".join(parts) + " " + cause

@@ -1,4 +1,4 @@
-"""Telling a CPU-starved heartbeat thread from a GIL-starved one (`services.runtime.starvation`)."""
+"""Telling why a heartbeat thread woke late (`services.runtime.starvation`)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import sys
 import threading
 import time
 
-from services.runtime.starvation import WakeSample, late_wake_report, parse_schedstat, sample_wake
+from services.runtime.starvation import WakeSample, late_wake_report, parse_schedstat, parse_steal, sample_wake
 
 
 def test_schedstat_line_gives_the_run_queue_wait_in_seconds():
@@ -16,29 +16,51 @@ def test_schedstat_line_gives_the_run_queue_wait_in_seconds():
     assert parse_schedstat("1 x 3") is None
 
 
+def test_proc_stat_line_gives_the_steal_time_per_cpu_in_seconds():
+    line = "cpu  3635021 3023612 1622721 2716202 22978 0 123217 128591 0 0\n"
+    assert parse_steal(line, ticks_per_s=100, cpus=2) == 128591 / 100 / 2
+    assert parse_steal("cpu0 1 2 3 4 5 6 7 8 0 0", 100, 2) is None
+    assert parse_steal("cpu 1 2 3", 100, 2) is None
+    assert parse_steal("", 100, 2) is None
+
+
 def test_on_time_wake_is_not_reported():
-    a = WakeSample(10.0, 1.0, 5.0)
-    assert late_wake_report(a, WakeSample(10.025, 1.0, 5.01), 0.025) is None
-    assert late_wake_report(a, WakeSample(10.12, 1.09, 5.01), 0.025) is None  # 95 ms late: under 0.1 s
+    a = WakeSample(10.0, 1.0, 5.0, 3.0)
+    assert late_wake_report(a, WakeSample(10.025, 1.0, 5.01, 3.0), 0.025) is None
+    assert late_wake_report(a, WakeSample(10.12, 1.09, 5.01, 3.0), 0.025) is None  # 95 ms late: under 0.1 s
 
 
 def test_late_wake_spent_on_the_run_queue_is_cpu_starvation():
-    line = late_wake_report(WakeSample(10.0, 1.0, 5.0), WakeSample(10.325, 1.28, 5.02), 0.025)
+    line = late_wake_report(WakeSample(10.0, 1.0, 5.0, 3.0), WakeSample(10.325, 1.28, 5.02, 3.0), 0.025)
+    assert line == ("heartbeat thread woke 300 ms late: 280 ms waiting for a CPU, 0 ms stolen by the host, "
+                    "process used 20 ms of CPU meanwhile; starved of CPU: the machine is overloaded or this "
+                    "process's niceness is too high")
+
+
+def test_late_wake_while_the_host_took_the_cpus_is_a_machine_pause():
+    line = late_wake_report(WakeSample(10.0, 1.0, 5.0, 3.0), WakeSample(10.225, 1.003, 5.0, 3.15), 0.025)
     assert line is not None
-    assert line.startswith("heartbeat thread woke 300 ms late: 280 ms waiting for a CPU, process used 20 ms")
-    assert "starved of CPU" in line
+    assert "200 ms late: 3 ms waiting for a CPU, 150 ms stolen by the host, process used 0 ms" in line
+    assert line.endswith("the machine paused: the host took its virtual CPUs (steal time)")
 
 
 def test_late_wake_with_the_cpu_busy_elsewhere_in_the_process_is_the_gil():
-    line = late_wake_report(WakeSample(10.0, 1.0, 5.0), WakeSample(10.325, 1.01, 5.29), 0.025)
+    line = late_wake_report(WakeSample(10.0, 1.0, 5.0, 3.0), WakeSample(10.325, 1.01, 5.29, 3.0), 0.025)
     assert line is not None
-    assert "10 ms waiting for a CPU, process used 290 ms of CPU" in line
-    assert "GIL" in line
+    assert "10 ms waiting for a CPU, 0 ms stolen by the host, process used 290 ms of CPU" in line
+    assert line.endswith("another thread computed holding the GIL")
 
 
-def test_unknown_run_queue_wait_still_reports_the_lateness():
+def test_late_wake_without_waiting_running_or_steal_is_blocked():
+    line = late_wake_report(WakeSample(10.0, 1.0, 5.0, 3.0), WakeSample(10.155, 1.003, 5.0, 3.0), 0.025)
+    assert line is not None and "130 ms late" in line
+    assert "blocked: neither waiting for a CPU nor running" in line
+
+
+def test_unknown_figures_still_report_the_lateness():
     line = late_wake_report(WakeSample(10.0, None, 5.0), WakeSample(10.5, None, 5.1), 0.025)
-    assert line == "heartbeat thread woke 475 ms late (process used 100 ms of CPU meanwhile; run-queue wait unknown)"
+    assert line == ("heartbeat thread woke 475 ms late: run-queue wait unknown, process used 100 ms of CPU "
+                    "meanwhile; cause unknown (no run-queue figures on this kernel)")
 
 
 def test_a_thread_kept_from_the_gil_is_told_apart_from_real_samples():
@@ -66,4 +88,4 @@ def test_a_thread_kept_from_the_gil_is_told_apart_from_real_samples():
         sys.setswitchinterval(old)
     t.join()
     assert results and results[0] is not None, "the sleeper was not held up"
-    assert "GIL" in results[0] or "run-queue wait unknown" in results[0], results[0]
+    assert "GIL" in results[0] or "waiting for a CPU" in results[0], results[0]
