@@ -3,24 +3,55 @@ config: the Kinect moved out, the scene receiver's body stays."""
 
 from __future__ import annotations
 
-import threading
-import time
-
 import pytest
 
 from services.bridge.backend import make_backend
 from services.bridge.cli import main as bridge_main
 from services.bridge.config import ContactConfig, parse_config
 from services.bridge.errors import BridgeConfigError
+from services.bridge import ticker as ticker_module
 from services.bridge.ticker import StopTicker
 
 
-class FakeNode:
-    """The part of `ServiceNode` the ticker uses: `wait` woken by `notify`, and stopping."""
+class FakeClock:
+    """`time.monotonic` for the ticker, advanced only by the fake node's waits, s."""
 
     def __init__(self) -> None:
-        self.stop_event = threading.Event()
-        self._cond = threading.Condition()
+        self.now_s = 100.0
+
+    def monotonic(self) -> float:
+        return self.now_s
+
+
+class FakeStopEvent:
+    """`threading.Event` whose `wait` lets fake time pass instead of real time."""
+
+    def __init__(self, clock: FakeClock) -> None:
+        self.clock = clock
+        self._set = False
+
+    def set(self) -> None:
+        self._set = True
+
+    def is_set(self) -> bool:
+        return self._set
+
+    def wait(self, timeout_s: float) -> bool:
+        self.clock.now_s += max(0.0, timeout_s)
+        return self._set
+
+
+class ScriptedNode:
+    """The part of `ServiceNode` the ticker uses, on fake time: `wait` returns at once when a
+    message is queued (`notify`), else at the first scripted message within the time-out
+    (time, is_stop), else when the time-out passes. No threads, no real sleeps: the test
+    does not depend on how busy the machine is."""
+
+    def __init__(self, clock: FakeClock, script: list[tuple[float, bool]] = ()) -> None:
+        self.clock = clock
+        self.stop_event = FakeStopEvent(clock)
+        self.script = sorted(script)
+        self.stop_pending = False
         self._new = False
 
     @property
@@ -28,60 +59,57 @@ class FakeNode:
         return self.stop_event.is_set()
 
     def notify(self) -> None:
-        with self._cond:
-            self._new = True
-            self._cond.notify_all()
+        self._new = True
 
     def wait(self, timeout_s: float) -> bool:
-        with self._cond:
-            if not self._new and not self.stop_event.is_set():
-                self._cond.wait(timeout_s)
-            got, self._new = self._new, False
+        if not self._new and self.script and self.script[0][0] <= self.clock.now_s + timeout_s:
+            at_s, is_stop = self.script.pop(0)
+            self.clock.now_s = max(self.clock.now_s, at_s)
+            self.stop_pending |= is_stop
+            self._new = True
+        elif not self._new:
+            self.clock.now_s += max(0.0, timeout_s)
+        got, self._new = self._new, False
         return got
 
 
-def _run(ticker: StopTicker, node: FakeNode, pending: list[bool], stop_after: int, notify_at_tick: int,
-         also_unrelated: bool = False) -> list[tuple[bool, float]]:
-    """Iterate `ticker`; after grid tick `notify_at_tick` another thread raises a stop (and
-    before it, optionally, an unrelated message). Returns (urgent, time) per tick."""
+@pytest.fixture
+def clock(monkeypatch):
+    fake = FakeClock()
+    monkeypatch.setattr(ticker_module, "time", fake)
+    return fake
+
+
+def _run(ticker: StopTicker, node: ScriptedNode, clock: FakeClock, grid_ticks: int) -> list[tuple[bool, float]]:
+    """Iterate `ticker` for `grid_ticks` grid ticks; returns (urgent, fake time) per tick. An
+    urgent tick drains the pending stop, as the bridge's does."""
     ticks: list[tuple[bool, float]] = []
-    grid = 0
     for urgent in ticker:
-        ticks.append((urgent, time.monotonic()))
+        ticks.append((urgent, clock.now_s))
         if urgent:
-            pending[0] = False  # the tick drained the stop
-            continue
-        grid += 1
-        if grid == notify_at_tick:
-            def raise_stop() -> None:
-                if also_unrelated:
-                    node.notify()  # e.g. a joint command: wakes, but is not urgent
-                    time.sleep(0.002)
-                time.sleep(0.003)
-                pending[0] = True
-                node.notify()
-            threading.Thread(target=raise_stop).start()
-        if grid >= stop_after:
+            node.stop_pending = False
+        elif sum(not u for u, _ in ticks) >= grid_ticks:
             node.stop_event.set()
     return ticks
 
 
 @pytest.mark.parametrize("also_unrelated", [False, True])
-def test_a_stop_runs_one_extra_tick_between_grid_ticks(also_unrelated):
-    node = FakeNode()
-    pending = [False]
-    ticker = StopTicker(node, 50.0, lambda: pending[0])
-    ticks = _run(ticker, node, pending, stop_after=6, notify_at_tick=3, also_unrelated=also_unrelated)
-    kinds = [u for u, _ in ticks]
-    assert kinds == [False, False, False, True, False, False, False]  # extra tick after the 3rd grid tick
+def test_a_stop_runs_one_extra_tick_between_grid_ticks(clock, also_unrelated):
+    # 50 Hz grid from t = 100 s; the stop arrives 5 ms after the third grid tick (and, before
+    # it, optionally a message that wakes the loop but is not urgent, e.g. a joint command).
+    script = [(100.045, True)] + ([(100.043, False)] if also_unrelated else [])
+    node = ScriptedNode(clock, script)
+    ticker = StopTicker(node, 50.0, lambda: node.stop_pending)
+    ticks = _run(ticker, node, clock, grid_ticks=6)
+    assert [u for u, _ in ticks] == [False, False, False, True, False, False, False]
+    assert ticks[3][1] == pytest.approx(100.045)  # at once, not at the next grid tick
     assert ticker.stats.urgent_ticks == 1 and ticker.stats.ticks == 6
     # The grid is kept: the extra tick did not move the following grid ticks.
-    grid_times = [t for u, t in ticks if not u]
-    assert grid_times[3] - grid_times[0] == pytest.approx(3 * 0.02, abs=0.015)
+    assert [t for u, t in ticks if not u] == pytest.approx([100.0 + 0.02 * k for k in range(6)])
 
 
-def test_a_flood_of_stops_runs_at_most_one_extra_tick_per_period():
-    node = FakeNode()
+def test_a_flood_of_stops_runs_at_most_one_extra_tick_per_period(clock):
+    node = ScriptedNode(clock)
     ticker = StopTicker(node, 50.0, lambda: True)  # a stop is always pending
     kinds = []
     for urgent in ticker:
@@ -92,12 +120,13 @@ def test_a_flood_of_stops_runs_at_most_one_extra_tick_per_period():
     assert kinds == [False, True, False, True, False, True, False]
 
 
-def test_without_urgent_the_stop_waits_for_the_grid():
-    node = FakeNode()
-    pending = [False]
+def test_without_urgent_the_stop_waits_for_the_grid(clock):
+    node = ScriptedNode(clock, [(100.025, True)])
     ticker = StopTicker(node, 50.0, None)
-    ticks = _run(ticker, node, pending, stop_after=5, notify_at_tick=2)
+    ticks = _run(ticker, node, clock, grid_ticks=5)
     assert all(not u for u, _ in ticks) and ticker.stats.urgent_ticks == 0
+    assert [t for _u, t in ticks] == pytest.approx([100.0 + 0.02 * k for k in range(5)])
+    assert node.script == [(100.025, True)]  # it never woke the loop: it sleeps to the next grid tick
 
 
 def test_the_kinect_table_moved_out_of_the_bridge():
