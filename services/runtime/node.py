@@ -34,7 +34,7 @@ from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile, zenoh_config
 from services.runtime.stamps import SENDER_CLOCK
-from services.runtime.starvation import LATE_WAKE_WARNING_S, late_s, late_wake_report, sample_wake
+from services.runtime.starvation import LATE_WAKE_WARNING_S, WakeSampler, late_s, late_wake_report
 
 #: Period of every service's heartbeat (`runtime/heartbeat`), s.
 HEARTBEAT_PERIOD_S = 0.05
@@ -373,15 +373,17 @@ class ServiceNode:
     def _beat_forever(self) -> None:
         period_s = HEARTBEAT_PERIOD_S / 2
         late_log = RateLimitedLog(log, 5.0)
-        previous = sample_wake()
-        while not self.stop_event.wait(period_s):
-            now = sample_wake()
-            self.heartbeat()
-            report = late_wake_report(previous, now, period_s)
-            if report is not None:  # says whether the process lacked CPU or the GIL
-                warn = late_s(previous, now, period_s) >= LATE_WAKE_WARNING_S
-                late_log.log(logging.WARNING if warn else logging.INFO, "late heartbeat", f"{self.name}: {report}")
-            previous = now
+        with WakeSampler() as sampler:  # opened here: it samples this thread
+            previous = sampler.sample()
+            while not self.stop_event.wait(period_s):
+                now = sampler.sample()
+                self.heartbeat()
+                report = late_wake_report(previous, now, period_s)
+                if report is not None:  # says whether the process lacked CPU or the GIL
+                    warn = late_s(previous, now, period_s) >= LATE_WAKE_WARNING_S
+                    late_log.log(logging.WARNING if warn else logging.INFO, "late heartbeat",
+                                 f"{self.name}: {report}")
+                previous = now
 
     def heartbeat(self) -> None:
         """Send the heartbeat if it is due (cheap to call often; any thread)."""

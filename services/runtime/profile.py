@@ -390,9 +390,13 @@ def _check_niced_services_are_report_only(services: tuple[ServiceSpec, ...], pat
     supervisor = next((s for s in services if s.name == "supervisor" and s.enabled), None)
     if supervisor is None:
         return
-    watch = supervisor.config.get("watch", {"recorder": "report"})
-    if not isinstance(watch, dict):
-        return  # the supervisor's own config check names the bad table
+    from services.supervisor.config import parse_config  # the supervisor owns the watch table
+    from services.supervisor.errors import SupervisorConfigError
+
+    try:
+        watch = parse_config(supervisor.config).watch
+    except SupervisorConfigError:
+        return  # the supervisor's own config check names the bad key when it starts
     for spec in services:
         if spec.nice != 0 and spec.enabled and watch.get(spec.name, "critical") != "report":
             raise ProfileError(

@@ -116,6 +116,27 @@ def stopped_before_the_fault(rec, plans: list[FaultPlan]) -> str | None:
     return None if blamed in {p.service for p in plans} else rec.exit_line
 
 
+def run_again_if_stopped_before_the_fault(label: str, plans: list[FaultPlan], **run_kwargs):
+    """`run_with_faults(plans, **run_kwargs)`, and once more (printed, with ``-again`` added to
+    the ``log_path`` stem) if that stack stopped before any fault was injected, on a service
+    that looked silent and was not faulted (see `stopped_before_the_fault`): such a run says
+    nothing about the faults, and a live process starved of CPU on a loaded machine is not the
+    behaviour under test. A second such stop is returned as it is, for the caller to fail.
+
+    Returns:
+        (the run record that counts, the first stack's exit line if it was run again or None).
+    """
+    rec = run_with_faults(plans, **run_kwargs)
+    starved = stopped_before_the_fault(rec, plans)
+    if starved is None:
+        return rec, None
+    print(f"{label}: stack stopped before the fault ({starved}); running it once more")
+    log_path = run_kwargs.get("log_path")
+    if log_path is not None:
+        run_kwargs["log_path"] = log_path.with_name(f"{log_path.stem}-again{log_path.suffix}")
+    return run_with_faults(plans, **run_kwargs), starved
+
+
 def wall_split(lines: list[tuple[float, str]], launched_s: float | None = None) -> dict[str, float]:
     """Where a run's wall time went, from the launcher's output lines (monotonic receive time,
     line): ``startup_s`` (`launched_s`, else the first line → "all N services alive"),

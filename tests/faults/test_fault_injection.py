@@ -31,9 +31,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.faults.harness import run_with_faults
 from tests.faults.invariants import FaultPlan, judge
-from tests.faults.matrix import stopped_before_the_fault
+from tests.faults.matrix import run_again_if_stopped_before_the_fault
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(180)]
 
@@ -71,13 +70,10 @@ def _save(name: str, rec, verdict, stopped_before_the_fault: str | None = None) 
 
 
 def _run(name: str, plans: list[FaultPlan], receiver: str, tmp_path: Path):
-    rec = run_with_faults(plans, receiver=receiver, log_path=tmp_path / f"{name}.log")
-    starved = stopped_before_the_fault(rec, plans)
-    if starved is not None:
-        # One more stack, once: the faults under test were never injected, so this run says
-        # nothing about them. Reported on stdout and in the run's JSON; a second such stop fails.
-        print(f"{name}: stack stopped before the fault ({starved}); running it once more")
-        rec = run_with_faults(plans, receiver=receiver, log_path=tmp_path / f"{name}-again.log")
+    # The faults under test were never injected if the first stack stopped before them: it is
+    # run once more, reported on stdout and in the run's JSON; a second such stop fails.
+    rec, starved = run_again_if_stopped_before_the_fault(
+        name, plans, receiver=receiver, log_path=tmp_path / f"{name}.log")
     verdict = judge(rec)
     _save(name, rec, verdict, stopped_before_the_fault=starved)
     log_tail = "\n".join(line for _t, line in rec.lines if line.startswith("[launcher]"))[-3000:]

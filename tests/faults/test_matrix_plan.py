@@ -245,3 +245,31 @@ def test_a_run_without_faults_stopped_by_a_silent_service_is_told_apart():
     gone = starved.replace("silent: no heartbeat for 0.252 s", "process gone (liveliness token lost)")
     assert stopped_before_the_fault(RunRecord(receiver="dropping", exit_line=gone), []) is None
     assert stopped_before_the_fault(RunRecord(receiver="dropping", exit_line="[launcher] exit 0: 1 episode(s)"), []) is None
+
+
+def test_a_stack_stopped_before_its_fault_is_run_once_more_and_only_once(tmp_path, monkeypatch, capsys):
+    from tests.faults import matrix
+    from tests.faults.invariants import RunRecord
+
+    starved = "[launcher] exit 1: episode 1: protective_stop: protective stop: tracker: silent: no heartbeat for 0.252 s"
+    released = "[launcher] exit 0: 1 episode(s)"
+    calls: list[dict] = []
+
+    def fake_runs(exit_lines):
+        lines = iter(exit_lines)
+
+        def run_with_faults(plans, **kwargs):
+            calls.append(kwargs)
+            return RunRecord(receiver=kwargs["receiver"], exit_line=next(lines))
+        return run_with_faults
+
+    monkeypatch.setattr(matrix, "run_with_faults", fake_runs([released]))
+    rec, first = matrix.run_again_if_stopped_before_the_fault("clean", [], receiver="taking", log_path=tmp_path / "a.log")
+    assert (rec.exit_line, first, len(calls)) == (released, None, 1)
+
+    calls.clear()
+    monkeypatch.setattr(matrix, "run_with_faults", fake_runs([starved, starved, released]))
+    rec, first = matrix.run_again_if_stopped_before_the_fault("twice", [], receiver="taking", log_path=tmp_path / "b.log")
+    assert rec.exit_line == starved and first == starved  # the second stop is returned, not run a third time
+    assert [c["log_path"].name for c in calls] == ["b.log", "b-again.log"]
+    assert "twice: stack stopped before the fault" in capsys.readouterr().out

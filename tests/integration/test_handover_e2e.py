@@ -15,9 +15,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.faults.harness import run_with_faults
 from tests.faults.invariants import by_stamp, first_rest_after, motion_between, stamp_s
-from tests.faults.matrix import stopped_before_the_fault
+from tests.faults.matrix import run_again_if_stopped_before_the_fault
 
 pytestmark = pytest.mark.integration
 
@@ -25,15 +24,11 @@ MOVE_SPEED_RAD_S = 0.02
 
 
 def run_stack(receiver: str, seed: int, extra_args: tuple[str, ...] = ()):
-    """One `handover-up` run without faults, and once more (printed) if the first stack made
-    a protective stop because a service looked silent: no fault was injected, so that was a
-    live process starved of CPU on a loaded machine (its own log says so, `late heartbeat`),
-    not the behaviour under test. A second such stop is returned, and fails the test."""
-    rec = run_with_faults([], receiver=receiver, seed=seed, extra_args=extra_args)
-    starved = stopped_before_the_fault(rec, [])
-    if starved is not None:
-        print(f"{receiver} receiver: stack stopped with no fault injected ({starved}); running it once more")
-        rec = run_with_faults([], receiver=receiver, seed=seed, extra_args=extra_args)
+    """One `handover-up` run without faults, run once more (printed) if the first stack made a
+    protective stop because a service looked silent (`run_again_if_stopped_before_the_fault`).
+    A second such stop is returned, and fails the test."""
+    rec, _first_exit_line = run_again_if_stopped_before_the_fault(
+        f"{receiver} receiver", [], receiver=receiver, seed=seed, extra_args=extra_args)
     return rec
 
 

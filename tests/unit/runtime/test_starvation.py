@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import threading
 import time
 
-from services.runtime.starvation import WakeSample, late_wake_report, parse_schedstat, parse_steal, sample_wake
+import pytest
+
+from services.runtime.starvation import (WakeSample, WakeSampler, late_wake_report, parse_schedstat, parse_steal,
+                                         sample_wake)
 
 
 def test_schedstat_line_gives_the_run_queue_wait_in_seconds():
@@ -89,3 +93,37 @@ def test_a_thread_kept_from_the_gil_is_told_apart_from_real_samples():
     t.join()
     assert results and results[0] is not None, "the sleeper was not held up"
     assert "GIL" in results[0] or "waiting for a CPU" in results[0], results[0]
+
+
+def test_the_sampler_rereads_its_open_files(tmp_path):
+    """The files stay open and each sample reads them afresh (a changed steal figure shows)."""
+    stat = tmp_path / "stat"
+    schedstat = tmp_path / "schedstat"
+    stat.write_text("cpu  10 0 10 100 0 0 0 200 0 0\ncpu0 5 0 5 50 0 0 0 100 0 0\n")
+    schedstat.write_text("1000 2000000000 7\n")
+    with WakeSampler(schedstat, stat) as sampler:
+        first = sampler.sample()
+        stat.write_text("cpu  10 0 10 100 0 0 0 900 0 0\n")
+        schedstat.write_text("1000 2500000000 8\n")
+        second = sampler.sample()
+    assert first.queue_wait_s == pytest.approx(2.0) and second.queue_wait_s == pytest.approx(2.5)
+    ticks, cpus = os.sysconf("SC_CLK_TCK"), os.cpu_count()
+    assert second.steal_s - first.steal_s == pytest.approx(700 / ticks / cpus)
+
+
+def test_a_sampler_without_its_files_reports_unknown_figures(tmp_path):
+    with WakeSampler(tmp_path / "missing", tmp_path / "missing-too") as sampler:
+        sample = sampler.sample()
+    assert sample.queue_wait_s is None and sample.steal_s is None and sample.process_cpu_s > 0
+    sampler.close()  # closing twice is harmless
+    assert sampler.sample().queue_wait_s is None
+
+
+def test_the_real_proc_files_give_growing_figures():
+    with WakeSampler() as sampler:
+        first = sampler.sample()
+        sum(range(300_000))
+        second = sampler.sample()
+    assert first.queue_wait_s is not None and first.steal_s is not None
+    assert second.queue_wait_s >= first.queue_wait_s and second.steal_s >= first.steal_s
+    assert second.process_cpu_s >= first.process_cpu_s and second.monotonic_s > first.monotonic_s
