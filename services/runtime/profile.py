@@ -393,10 +393,13 @@ def _check_niced_services_are_report_only(services: tuple[ServiceSpec, ...], pat
     from services.supervisor.config import parse_config  # the supervisor owns the watch table
     from services.supervisor.errors import SupervisorConfigError
 
+    # Only the watch table: another bad key (which the supervisor's CLI may override) must not
+    # switch this check off.
+    table = supervisor.config
     try:
-        watch = parse_config(supervisor.config).watch
+        watch = parse_config({"watch": table["watch"]} if "watch" in table else {}).watch
     except SupervisorConfigError:
-        return  # the supervisor's own config check names the bad key when it starts
+        return  # a bad watch table: the supervisor's own config check names it when it starts
     for spec in services:
         if spec.nice != 0 and spec.enabled and watch.get(spec.name, "critical") != "report":
             raise ProfileError(

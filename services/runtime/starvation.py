@@ -116,10 +116,11 @@ class WakeSampler:
                           t.user + t.system, None if stat is None else parse_steal(stat.split("\n", 1)[0]))
 
     def close(self) -> None:
-        for fd in (self._schedstat_fd, self._stat_fd):
+        fds = (self._schedstat_fd, self._stat_fd)
+        self._schedstat_fd = self._stat_fd = None  # first: a failed close must not close a reused fd later
+        for fd in fds:
             if fd is not None:
                 os.close(fd)
-        self._schedstat_fd = self._stat_fd = None
 
     def __enter__(self) -> WakeSampler:
         return self

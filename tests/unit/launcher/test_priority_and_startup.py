@@ -74,6 +74,20 @@ def test_the_default_watch_table_lets_only_the_recorder_be_niced(tmp_path):
         load_profile_file(_profile(tmp_path, "[services.planner]\nnice = 2\n[services.supervisor]\n"))
 
 
+def test_another_bad_supervisor_key_does_not_switch_the_check_off(tmp_path):
+    """`episodes = -1` is the supervisor's to reject (its CLI may override it); the niced
+    tracker is still refused."""
+    with pytest.raises(ProfileError, match=r"services\.tracker\.nice = 5"):
+        load_profile_file(_profile(tmp_path, "[services.tracker]\nnice = 5\n[services.supervisor]\n"
+                                   "[services.supervisor.config]\nepisodes = -1\n"))
+
+
+def test_a_bad_watch_table_is_left_to_the_supervisor(tmp_path):
+    profile = load_profile_file(_profile(tmp_path, "[services.tracker]\nnice = 5\n" + _SUPERVISED
+                                         + 'tracker = "sometimes"\n'))
+    assert profile.service("tracker").nice == 5
+
+
 @pytest.mark.parametrize("name", ["sim", "baxter", "baxter_fake", "multihost"])
 def test_deploy_profiles_keep_safety_services_at_full_priority(name):
     profile = load_profile_file(name)
