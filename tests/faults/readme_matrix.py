@@ -17,6 +17,8 @@ from pathlib import Path
 from tests.faults.matrix import FAULTS, PHASES, SERVICES, progress, render, stop_blames, summary, unexplained_stop
 
 REPO = Path(__file__).resolve().parents[2]
+SECTION_IN_PROGRESS = "### The full fault matrix (long suite): in progress"
+SECTION_DONE = "### The full fault matrix (long suite)"
 
 
 @functools.lru_cache(maxsize=None)
@@ -24,6 +26,13 @@ def _since(commit: str, base: str) -> bool:
     """Whether `commit` has `base` in its history (git; False when git cannot tell)."""
     done = subprocess.run(["git", "merge-base", "--is-ancestor", base, commit], cwd=REPO, capture_output=True)
     return done.returncode == 0
+
+@functools.lru_cache(maxsize=None)
+def _commit_date(commit: str) -> str:
+    """`commit`'s date (YYYY-MM-DD; "" when git does not know it)."""
+    done = subprocess.run(["git", "show", "-s", "--format=%cs", commit], cwd=REPO, capture_output=True, text=True)
+    return done.stdout.strip() if done.returncode == 0 else ""
+
 
 EXPLAIN = {
     "motion/transfer/freeze#1@22ddb36": ("**Fixed.** Not the frozen motion service: the supervisor's log shows the bridge, "
@@ -178,15 +187,20 @@ def main() -> int:
     since_fix = sum(1 for r in runs if _since(r["commit"], "904bbe4"))
     summ = summary(results)
     table = render(results).split(summ + "\n", 1)[1].strip()
-    text = f"""### The full fault matrix (long suite): in progress
+    done = least >= 10 and len(results) == len(cells)
+    dates = sorted({_commit_date(c) for c in commits} - {""})
+    status = (f"**Status: complete. All {total} runs are in: every one of the 240 cells (8 services × 6 phases × "
+              f"5 faults) has at least {least} runs.**" if done else
+              f"**Status: {total} of the 2 400 runs ({100 * total / 2400:.0f} %); every one of the 240 cells\n"
+              f"(8 services × 6 phases × 5 faults) has at least {least} run{'s' if least > 1 else ''}. The\n"
+              "matrix at 10 runs per cell is not finished.**")
+    text = f"""{SECTION_DONE if done else SECTION_IN_PROGRESS}
 
-**Status: {total} of the 2 400 runs ({100 * total / 2400:.0f} %); every one of the 240 cells
-(8 services × 6 phases × 5 faults) has at least {least} run{'s' if least > 1 else ''}. The
-matrix at 10 runs per cell is not finished.** A run is one whole `handover-up` (the handover
+{status} A run is one whole `handover-up` (the handover
 runs in real time), {sum(walls) / len(walls):.1f} s on average on this 2-core machine{_split_text(runs)}, so the
 2 400 runs take about {2400 * sum(walls) / len(walls) / 3600:.1f} h; the campaign fills the
 cells round by round (every cell gets its n-th run before any gets its n+1-th), records every
-run at once and resumes where it stopped, so it is being completed across sessions:
+run at once and resumes where it stopped, so it {"was" if done else "is being"} completed across sessions:
 
 ```
 python -m tests.faults.matrix --status        # {prog}
@@ -194,7 +208,7 @@ python -m tests.faults.matrix --runs 10 --budget-s 7200   # go on for two hours 
 python -m tests.faults.readme_matrix                      # then this section is rewritten from the results
 ```
 
-Each run records its commit: the runs so far span {len(commits)} commits of 2026-11-21
+Each run records its commit: the runs span {len(commits)} commits ({", ".join(dates)})
 ({", ".join(f"`{c}`" for c in commits)}), because the fixes below landed while the campaign
 ran. Latencies count only the runs judged by the senders' stamps (the earlier
 {sum(1 for r in runs if r.get("latency_by") == "receive")} runs were timed by when the
@@ -243,9 +257,15 @@ judged by receive order, and a flood on `robot/joint_state` that made motion's I
 both fixed since) and `out/faults/matrix_session2.{{md,json}}` (22 runs).
 
 """
-    start = s.index("### Matrix (one run per cell, reach and transfer)") if "### Matrix (one run per cell, reach and transfer)" in s else s.index("### The full fault matrix (long suite): in progress")
+    start = next(s.index(h) for h in (SECTION_DONE + "\n", SECTION_IN_PROGRESS + "\n") if h in s)
     end = s.index("### Findings", start)
     s = s[:start] + text + s[end:]
+    # links to the section follow its heading
+    anchors = {h: "#" + h.lstrip("# ").lower().replace(" ", "-").replace("(", "").replace(")", "").replace(":", "")
+               for h in (SECTION_DONE, SECTION_IN_PROGRESS)}
+    old_anchor, new_anchor = ((anchors[SECTION_IN_PROGRESS], anchors[SECTION_DONE]) if done
+                              else (anchors[SECTION_DONE], anchors[SECTION_IN_PROGRESS]))
+    s = s.replace(f"]({old_anchor})", f"]({new_anchor})")
     readme.write_text(s)
     print(f"README: {prog}; {len(bad)} runs with a violation, {len(odd)} unexplained protective stops")
     return 0
