@@ -105,6 +105,17 @@ _RETRACT_BURST = ("Just after the release, when the supervisor sent the retract 
                   "2 s, at nice 19) in the 30 s before; at nice 19 they get about 1.5 % of a CPU against nice-0 "
                   "work, so they are an unlikely cause, but they cannot be ruled out. The 1-minute load (10.1) was "
                   "within the campaign's usual 7-12.")
+_BLOCKED_TRACKER = ("Nothing else ran beside the campaign. Only the tracker fell silent, 0.1 s after the flood of "
+                    "garbage on its output topic began (the tracker does not subscribe to that topic; the planner, "
+                    "supervisor and recorder dropped the garbage at decode). The tracker's heartbeat thread then "
+                    "woke 292 ms late with 6 ms of run-queue wait, 5 ms of steal and 10 ms of its process's CPU: "
+                    "it was neither waiting for a CPU nor running, and no other thread of the tracker computed. "
+                    "The other services were on time (the supervisor judged at its 100 Hz tick). So the tracker "
+                    "process was blocked, most likely its main thread held the GIL inside a blocking call. The "
+                    "call is not known: the one the flood could reach is a Zenoh publish on the same key, and "
+                    "that key publishes with congestion control DROP, which should not wait. Not explained; the "
+                    "lead for the next look is a stack sample of the tracker under this flood (py-spy, "
+                    "`--native`). The stop itself is the one the watchdog must make for a silent tracker.")
 EXPLAIN["bridge/pick/drop#8@38e85fe"] = ("**Not the fault: a starved supervisor** (the unexplained stop of the same "
                                          "run, below): " + _RETRACT_BURST)
 ODD_EXPLAIN = {
@@ -116,6 +127,7 @@ ODD_EXPLAIN = {
     "tracker/released/kill#6@5bc517e": _MACHINE_PAUSE,
     "kinect/transfer/drop#6@5bc517e": _STARTUP_STORM,
     "bridge/pick/drop#8@38e85fe": _RETRACT_BURST,
+    "tracker/locate/flood#9@38e85fe": _BLOCKED_TRACKER,
     "motion/pick/flood#2@04fca9f": _OPERATOR_LOAD,
     "motion/plan/freeze#2@04fca9f": _OPERATOR_LOAD,
     "motion/plan/delay#2@04fca9f": _OPERATOR_LOAD,
