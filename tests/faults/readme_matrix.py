@@ -116,6 +116,16 @@ _BLOCKED_TRACKER = ("Nothing else ran beside the campaign. Only the tracker fell
                     "that key publishes with congestion control DROP, which should not wait. Not explained; the "
                     "lead for the next look is a stack sample of the tracker under this flood (py-spy, "
                     "`--native`). The stop itself is the one the watchdog must make for a silent tracker.")
+_BLOCKED_MOTION = ("Nothing else ran beside the campaign, and the flood was never injected: 0.2 s into the pick, "
+                   "before the plan phase, motion's heartbeat thread woke 198 ms late with 3 ms of run-queue wait "
+                   "and 0 ms of its process's CPU, so the supervisor rightly called it silent. Like the tracker two "
+                   "runs before (`tracker/locate/flood` run 10), the process was neither running nor was its "
+                   "heartbeat thread waiting for a CPU. The likeliest reading, not proven: the thread holding "
+                   "motion's GIL (its main loop, starting the pick's IK, or a Zenoh callback) was itself preempted "
+                   "and waited for a CPU, so the heartbeat thread slept on the GIL. The late-heartbeat report counts "
+                   "only its own thread's run-queue wait, so it calls this 'blocked'; counting the wait of the "
+                   "process's other threads would tell. The machine's CPU pressure (`/proc/pressure/cpu`, some) "
+                   "was 78 % over these minutes: the campaign's stack keeps the two cores saturated.")
 EXPLAIN["bridge/pick/drop#8@38e85fe"] = ("**Not the fault: a starved supervisor** (the unexplained stop of the same "
                                          "run, below): " + _RETRACT_BURST)
 ODD_EXPLAIN = {
@@ -128,6 +138,7 @@ ODD_EXPLAIN = {
     "kinect/transfer/drop#6@5bc517e": _STARTUP_STORM,
     "bridge/pick/drop#8@38e85fe": _RETRACT_BURST,
     "tracker/locate/flood#9@38e85fe": _BLOCKED_TRACKER,
+    "tracker/plan/flood#9@38e85fe": _BLOCKED_MOTION,
     "motion/pick/flood#2@04fca9f": _OPERATOR_LOAD,
     "motion/plan/freeze#2@04fca9f": _OPERATOR_LOAD,
     "motion/plan/delay#2@04fca9f": _OPERATOR_LOAD,
