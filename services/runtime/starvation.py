@@ -34,6 +34,9 @@ LATE_WAKE_REPORT_S = 0.1
 LATE_WAKE_WARNING_S = 0.2
 
 _SCHEDSTAT = Path("/proc/thread-self/schedstat")
+#: The process's main thread (the thread-group leader): it runs the service loop and is the
+#: thread most often holding the GIL.
+_MAIN_SCHEDSTAT = Path("/proc/self/schedstat")
 _STAT = Path("/proc/stat")
 _CLOCK_TICKS_PER_S = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
 _CPUS = os.cpu_count() or 1
@@ -48,6 +51,8 @@ class WakeSample:
         queue_wait_s: the thread's total run-queue wait so far, s (None where the kernel
             does not say).
         process_cpu_s: the process's CPU time so far (all threads, user + system), s.
+        main_queue_wait_s: the process's main thread's total run-queue wait so far, s (None
+            where the kernel does not say).
         steal_s: the machine's steal time so far, per CPU, s (time its virtual CPUs were
             taken by the host; None where the kernel does not say).
     """
@@ -56,6 +61,7 @@ class WakeSample:
     queue_wait_s: float | None
     process_cpu_s: float
     steal_s: float | None = None
+    main_queue_wait_s: float | None = None
 
 
 def parse_schedstat(text: str) -> float | None:
@@ -87,9 +93,11 @@ class WakeSampler:
     context manager); a file that cannot be opened or read gives None for its figure.
     """
 
-    def __init__(self, schedstat_path: Path = _SCHEDSTAT, stat_path: Path = _STAT) -> None:
+    def __init__(self, schedstat_path: Path = _SCHEDSTAT, stat_path: Path = _STAT,
+                 main_schedstat_path: Path = _MAIN_SCHEDSTAT) -> None:
         self._schedstat_fd = self._open(schedstat_path)
         self._stat_fd = self._open(stat_path)
+        self._main_schedstat_fd = self._open(main_schedstat_path)
 
     @staticmethod
     def _open(path: Path) -> int | None:
@@ -111,13 +119,15 @@ class WakeSampler:
         """This thread's `WakeSample` now."""
         schedstat = self._read(self._schedstat_fd, 128)
         stat = self._read(self._stat_fd, 512)
+        main = self._read(self._main_schedstat_fd, 128)
         t = os.times()
         return WakeSample(time.monotonic(), None if schedstat is None else parse_schedstat(schedstat),
-                          t.user + t.system, None if stat is None else parse_steal(stat.split("\n", 1)[0]))
+                          t.user + t.system, None if stat is None else parse_steal(stat.split("\n", 1)[0]),
+                          None if main is None else parse_schedstat(main))
 
     def close(self) -> None:
-        fds = (self._schedstat_fd, self._stat_fd)
-        self._schedstat_fd = self._stat_fd = None  # first: a failed close must not close a reused fd later
+        fds = (self._schedstat_fd, self._stat_fd, self._main_schedstat_fd)
+        self._schedstat_fd = self._stat_fd = self._main_schedstat_fd = None  # first: a failed close must not close a reused fd later
         for fd in fds:
             if fd is not None:
                 os.close(fd)
@@ -151,22 +161,30 @@ def late_wake_report(previous: WakeSample, now: WakeSample, expected_gap_s: floa
 
     The first of these that covers at least half of the lateness names the cause: the
     thread's run-queue wait (no CPU), the machine's steal time (the host paused the VM), the
-    process's CPU time (another thread computing with the GIL); else the thread was blocked."""
+    main thread's run-queue wait (the thread that most often holds the GIL was itself waiting
+    for a CPU, so this one slept on the GIL), the process's CPU time (another thread computing
+    with the GIL); else the thread was blocked."""
     late = late_s(previous, now, expected_gap_s)
     if late <= report_s:
         return None
     cpu_s = max(0.0, now.process_cpu_s - previous.process_cpu_s)
     queued_s = _delta(previous.queue_wait_s, now.queue_wait_s)
     stolen_s = _delta(previous.steal_s, now.steal_s)
+    main_queued_s = _delta(previous.main_queue_wait_s, now.main_queue_wait_s)
     parts = [f"heartbeat thread woke {1000.0 * late:.0f} ms late:"]
     parts.append("run-queue wait unknown," if queued_s is None else f"{1000.0 * queued_s:.0f} ms waiting for a CPU,")
     if stolen_s is not None:
         parts.append(f"{1000.0 * stolen_s:.0f} ms stolen by the host,")
+    if main_queued_s is not None:
+        parts.append(f"main thread {1000.0 * main_queued_s:.0f} ms waiting for a CPU,")
     parts.append(f"process used {1000.0 * cpu_s:.0f} ms of CPU meanwhile;")
     if queued_s is not None and queued_s >= 0.5 * late:
         cause = "starved of CPU: the machine is overloaded or this process's niceness is too high"
     elif stolen_s is not None and stolen_s >= 0.5 * late:
         cause = "the machine paused: the host took its virtual CPUs (steal time)"
+    elif main_queued_s is not None and main_queued_s >= 0.5 * late:
+        cause = ("starved of CPU through the GIL: the main thread, which most often holds it, was waiting for a "
+                 "CPU (the machine is overloaded)")
     elif cpu_s >= 0.5 * late:
         cause = "held up inside its own process: another thread computed holding the GIL"
     elif queued_s is None:

@@ -56,6 +56,18 @@ def test_late_wake_with_the_cpu_busy_elsewhere_in_the_process_is_the_gil():
     assert line.endswith("another thread computed holding the GIL")
 
 
+def test_late_wake_while_the_main_thread_waited_for_a_cpu_is_starvation_through_the_gil():
+    """The heartbeat thread itself barely waited, the process hardly ran: the GIL holder (the
+    main thread) was on the run queue, and the heartbeat thread slept on the GIL."""
+    line = late_wake_report(WakeSample(10.0, 1.0, 5.0, 3.0, 2.0), WakeSample(10.317, 1.006, 5.01, 3.005, 2.25), 0.025)
+    assert line == ("heartbeat thread woke 292 ms late: 6 ms waiting for a CPU, 5 ms stolen by the host, main thread "
+                    "250 ms waiting for a CPU, process used 10 ms of CPU meanwhile; starved of CPU through the GIL: "
+                    "the main thread, which most often holds it, was waiting for a CPU (the machine is overloaded)")
+    # the heartbeat thread's own wait comes first
+    own = late_wake_report(WakeSample(10.0, 1.0, 5.0, 3.0, 2.0), WakeSample(10.317, 1.2, 5.01, 3.0, 2.25), 0.025)
+    assert own is not None and own.endswith("this process's niceness is too high")
+
+
 def test_late_wake_without_waiting_running_or_steal_is_blocked():
     line = late_wake_report(WakeSample(10.0, 1.0, 5.0, 3.0), WakeSample(10.155, 1.003, 5.0, 3.0), 0.025)
     assert line is not None and "130 ms late" in line
@@ -141,3 +153,40 @@ def test_the_real_proc_files_are_read_afresh():
     assert after_ns > before_ns
     assert first.queue_wait_s is not None and first.steal_s is not None
     assert second.queue_wait_s >= first.queue_wait_s and second.steal_s >= first.steal_s
+
+
+@pytest.mark.skipif(not Path("/proc/thread-self/schedstat").exists() or not Path("/proc/self/schedstat").exists(),
+                    reason="this kernel has no per-thread schedstat")
+def test_a_sampler_made_in_a_thread_reads_that_thread_and_the_main_thread():
+    """Made in a worker, the sampler's own file is the worker's and its main file the main
+    thread's: while the main thread computes 0.1 s of CPU, only the main file's on-CPU grows."""
+    def on_cpu_s(fd: int) -> float:
+        return int(os.pread(fd, 128, 0).split()[0]) / 1e9
+
+    made, measured, done = threading.Event(), threading.Event(), threading.Event()
+    box: dict = {}
+
+    def worker() -> None:
+        sampler = WakeSampler()
+        box["before"] = (on_cpu_s(sampler._schedstat_fd), on_cpu_s(sampler._main_schedstat_fd))
+        made.set()
+        done.wait(10.0)
+        box["after"] = (on_cpu_s(sampler._schedstat_fd), on_cpu_s(sampler._main_schedstat_fd))
+        box["sample"] = sampler.sample()
+        sampler.close()
+        measured.set()
+
+    t = threading.Thread(target=worker)
+    t.start()
+    made.wait(5.0)
+    start = time.thread_time()
+    while time.thread_time() - start < 0.1:  # 0.1 s of this (main) thread's CPU
+        pass
+    done.set()
+    measured.wait(10.0)
+    t.join()
+    own_s = box["after"][0] - box["before"][0]
+    main_s = box["after"][1] - box["before"][1]
+    assert main_s >= 0.09, main_s
+    assert own_s < 0.05, own_s
+    assert box["sample"].main_queue_wait_s is not None
