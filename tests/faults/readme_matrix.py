@@ -127,6 +127,15 @@ _BLOCKED_MOTION = ("Nothing else ran beside the campaign, and the flood was neve
                    "only its own thread's run-queue wait, so it calls this 'blocked'; counting the wait of the "
                    "process's other threads would tell. The machine's CPU pressure (`/proc/pressure/cpu`, some) "
                    "was 78 % over these minutes: the campaign's stack keeps the two cores saturated.")
+_STEAL_PAUSE = ("Nothing else ran beside the campaign, and the kill was never injected: during the pick, the host "
+                "took the VM's CPUs. At one instant every service's heartbeat thread woke 364-427 ms late, and "
+                "the report read 240-275 ms of steal time (`/proc/stat`) in that window, in every process: "
+                "motion and the Kinect had almost no run-queue wait (the machine paused), the others waited "
+                "for a CPU as everything woke at once. The supervisor's loop ran 451 ms late, and the launcher "
+                "found `supervisor/state` 0.45 s old and stopped the arm. This is the steal the seventh "
+                "session's report was extended to read (`tracker/released/kill` run 7 looked the same before "
+                "it could): pauses of the virtual machine itself, which no service can ride through, and "
+                "after which a stop is the safe answer.")
 EXPLAIN["bridge/pick/drop#8@38e85fe"] = ("**Not the fault: a starved supervisor** (the unexplained stop of the same "
                                          "run, below): " + _RETRACT_BURST)
 ODD_EXPLAIN = {
@@ -140,6 +149,7 @@ ODD_EXPLAIN = {
     "bridge/pick/drop#8@38e85fe": _RETRACT_BURST,
     "tracker/locate/flood#9@38e85fe": _BLOCKED_TRACKER,
     "tracker/plan/flood#9@38e85fe": _BLOCKED_MOTION,
+    "kinect/transfer/kill#9@38e85fe": _STEAL_PAUSE,
     "motion/pick/flood#2@04fca9f": _OPERATOR_LOAD,
     "motion/plan/freeze#2@04fca9f": _OPERATOR_LOAD,
     "motion/plan/delay#2@04fca9f": _OPERATOR_LOAD,
