@@ -7,6 +7,8 @@ The supervisor calls a service silent when its heartbeat (20 Hz, sent from its o
   machine is overloaded, or the process's niceness puts it behind busier ones);
 - **the machine paused**: the virtual machine's CPUs were taken by its host (*steal* time in
   ``/proc/stat``): every process is late at once, none of them waiting or running;
+- **starved of CPU through the GIL**: the main thread, which runs the service loop and most
+  often holds Python's interpreter lock, waited for a CPU while this thread slept on the lock;
 - **starved of the GIL by a computation**: another thread of the process ran (the process
   used CPU) while holding Python's interpreter lock;
 - **blocked**: the thread neither waited for a CPU nor did its process run: another thread
@@ -15,7 +17,7 @@ The supervisor calls a service silent when its heartbeat (20 Hz, sent from its o
 
 Linux keeps, per thread, the time spent running and the time spent waiting on the run queue
 (``/proc/thread-self/schedstat``: on-CPU ns, run-queue wait ns, time slices), and machine-wide
-steal time (``/proc/stat``). Sampled at every wake-up (`WakeSampler`, about 15 µs), they tell these apart;
+steal time (``/proc/stat``), and the main thread's figures (``/proc/self/schedstat``). Sampled at every wake-up (`WakeSampler`, about 15 µs), they tell these apart;
 `late_wake_report` turns two samples into the one line the service logs, so the next false
 "silent" names its cause.
 """
