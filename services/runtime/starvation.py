@@ -16,9 +16,9 @@ The supervisor calls a service silent when its heartbeat (20 Hz, sent from its o
   the kernel did not count as steal.
 
 Linux keeps, per thread, the time spent running and the time spent waiting on the run queue
-(``/proc/thread-self/schedstat``: on-CPU ns, run-queue wait ns, time slices), and machine-wide
-steal time (``/proc/stat``), and the main thread's figures (``/proc/self/schedstat``). Sampled at every wake-up (`WakeSampler`, about 15 µs), they tell these apart;
-`late_wake_report` turns two samples into the one line the service logs, so the next false
+(``/proc/thread-self/schedstat``: on-CPU ns, run-queue wait ns, time slices; the main thread's
+in ``/proc/self/schedstat``) and machine-wide steal time (``/proc/stat``). Sampled at every
+wake-up (`WakeSampler`, about 15 µs), they tell these apart; `late_wake_report` turns two samples into the one line the service logs, so the next false
 "silent" names its cause.
 """
 
@@ -129,7 +129,8 @@ class WakeSampler:
 
     def close(self) -> None:
         fds = (self._schedstat_fd, self._stat_fd, self._main_schedstat_fd)
-        self._schedstat_fd = self._stat_fd = self._main_schedstat_fd = None  # first: a failed close must not close a reused fd later
+        # cleared first: a failed close must not leave an fd number that a later close would reuse
+        self._schedstat_fd = self._stat_fd = self._main_schedstat_fd = None
         for fd in fds:
             if fd is not None:
                 os.close(fd)
