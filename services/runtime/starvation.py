@@ -18,8 +18,8 @@ The supervisor calls a service silent when its heartbeat (20 Hz, sent from its o
 Linux keeps, per thread, the time spent running and the time spent waiting on the run queue
 (``/proc/thread-self/schedstat``: on-CPU ns, run-queue wait ns, time slices; the main thread's
 in ``/proc/self/schedstat``) and machine-wide steal time (``/proc/stat``). Sampled at every
-wake-up (`WakeSampler`, about 15 µs), they tell these apart; `late_wake_report` turns two samples into the one line the service logs, so the next false
-"silent" names its cause.
+wake-up (`WakeSampler`, about 15 µs), they tell these apart; `late_wake_report` turns two
+samples into the one line the service logs, so the next false "silent" names its cause.
 """
 
 from __future__ import annotations
