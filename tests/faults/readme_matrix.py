@@ -21,16 +21,21 @@ SECTION_IN_PROGRESS = "### The full fault matrix (long suite): in progress"
 SECTION_DONE = "### The full fault matrix (long suite)"
 
 
+def _git(*args: str) -> subprocess.CompletedProcess:
+    """Run git in the repository (output captured as text)."""
+    return subprocess.run(["git", *args], cwd=REPO, capture_output=True, text=True)
+
+
 @functools.lru_cache(maxsize=None)
 def _since(commit: str, base: str) -> bool:
     """Whether `commit` has `base` in its history (git; False when git cannot tell)."""
-    done = subprocess.run(["git", "merge-base", "--is-ancestor", base, commit], cwd=REPO, capture_output=True)
-    return done.returncode == 0
+    return _git("merge-base", "--is-ancestor", base, commit).returncode == 0
+
 
 @functools.lru_cache(maxsize=None)
 def _commit_date(commit: str) -> str:
     """`commit`'s date (YYYY-MM-DD; "" when git does not know it)."""
-    done = subprocess.run(["git", "show", "-s", "--format=%cs", commit], cwd=REPO, capture_output=True, text=True)
+    done = _git("show", "-s", "--format=%cs", commit)
     return done.stdout.strip() if done.returncode == 0 else ""
 
 
