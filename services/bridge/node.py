@@ -51,11 +51,13 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
     new_episode = getattr(backend, "new_episode", None)
     with ServiceNode(SERVICE_NAME, profile) as node:
         state_pub = node.publisher(topics.JOINT_STATE)
-        commands = node.subscribe(topics.JOINT_COMMAND)
-        grip_commands = node.subscribe(topics.GRIPPER_COMMAND)
+        # Read at the servo's tick; only a stop wakes the loop early (`StopTicker`).
+        commands = node.subscribe(topics.JOINT_COMMAND, wake=False)
+        grip_commands = node.subscribe(topics.GRIPPER_COMMAND, wake=False)
         stops = node.subscribe(topics.MOTION_STOP, queue_size=16)
-        goals = node.subscribe(topics.MOTION_GOAL, queue_size=64)
-        supervisor = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16)
+        goals = node.subscribe(topics.MOTION_GOAL, queue_size=64, wake=False)
+        supervisor = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16, wake=False)
+        node.ready()
         episode_id: int | None = None
         extra_pubs: dict[str, Any] = {}
 

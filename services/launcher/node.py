@@ -1,6 +1,7 @@
 """`handover-up`: host the bus, start every service, run a job, shut down in order.
 
-1. Open the Zenoh router in this process on the profile's loopback endpoint.
+1. Start the Zenoh router as its own process on the profile's loopback endpoint
+   (`services.launcher.router`), so that no Python work of the launcher sits on the bus's path.
 2. Start the enabled services (recorder first) as child processes, output prefixed ``[name]``.
 3. Wait for every liveliness token (time-out names the services that did not come up).
 4. Run the job (``handover``: follow the supervisor's handover episodes and report them;
@@ -14,7 +15,9 @@ arguments, port in use); 130 interrupted by Ctrl-C/SIGTERM.
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import signal
 import threading
 import time
@@ -32,16 +35,30 @@ from services.launcher.core import (
     shutdown_order,
     start_order,
 )
-from services.launcher.processes import Child, emit
+from services.launcher.processes import Child, RouterProcess, emit, stdout_outlet
 from services.runtime import LivelinessWatcher, Profile, ServiceNode, open_session
 from services.runtime.errors import BusError, ServiceError
+from services.runtime.profile import zenoh_config_dict
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 JOBS = ("handover", "demo", "check", "none")
+#: At exit, how long the launcher waits for a blocked stdout to take its last lines, s.
+EXIT_FLUSH_S = 10.0
 
 
 class LauncherError(ServiceError):
     """handover-up could not start the stack (the message names the service or setting)."""
+
+
+class BusPortError(LauncherError):
+    """The bus endpoint cannot be hosted (port in use, address not local): a usage error."""
+
+    bad_input = True
+
+
+def _without_source_locations(text: str) -> str:
+    """Zenoh's error text without its Rust source locations (`` at /…/file.rs:61.``)."""
+    return re.sub(r" at /\S+\.rs:\d+\.?", "", text).strip()
 
 
 def say(text: str) -> None:
@@ -219,22 +236,24 @@ class Launcher:
         previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         t0 = time.monotonic()
         precompile_stack()
+        router_profile = replace(self.profile, zenoh_overrides=router_zenoh_overrides(self.profile.zenoh_overrides))
+        router = RouterProcess(json.dumps(zenoh_config_dict(router_profile, "router")))
         try:
-            router_profile = replace(self.profile,
-                                     zenoh_overrides=router_zenoh_overrides(self.profile.zenoh_overrides))
-            router = open_session(router_profile, "router", timeout_s=0.0)
-        except BusError as exc:
+            router.start()
+            session = open_session(self.profile, "client", timeout_s=5.0, user="launcher")
+        except (BusError, RuntimeError) as exc:
             for s, h in previous.items():
                 signal.signal(s, h)
-            raise LauncherError(
+            router.stop()
+            raise BusPortError(
                 f"cannot host the bus on {self.profile.endpoint} (is another handover-up running? "
-                f"use --port auto): {exc}"
+                f"use --port auto): {_without_source_locations(str(exc))}"
             ) from None
-        watcher = LivelinessWatcher(router, self.profile.prefix)
+        watcher = LivelinessWatcher(session, self.profile.prefix)
         monitor: threading.Thread | None = None
         code = EXIT_FAILED
         try:
-            say(f"bus on {self.profile.endpoint} (router in-process, loopback only, prefix {self.profile.prefix})")
+            say(f"bus on {self.profile.endpoint} (router pid {router.pid}, loopback only, prefix {self.profile.prefix})")
             for spec in self.specs:
                 child = self._start(spec.name)
                 effective = max(spec.nice, os.getpriority(os.PRIO_PROCESS, 0))  # never below the launcher's
@@ -263,7 +282,8 @@ class Launcher:
                 monitor.join(timeout=2.0)
             self._shutdown()
             watcher.undeclare()
-            router.close()
+            session.close()
+            router.stop()
             for s, h in previous.items():
                 signal.signal(s, h)
         if self.failure and code == EXIT_OK:
@@ -273,6 +293,7 @@ class Launcher:
         if self.recording is not None and self.recording.exists():
             say(f"recording: {self.recording}  (open it with: rerun {self.recording})")
         say(f"exit {code}" + (f": {self.failure}" if self.failure else ""))
+        stdout_outlet().flush(EXIT_FLUSH_S)  # a blocked stdout delays the exit this long at most
         return code
 
     def _abort_reason(self) -> str | None:

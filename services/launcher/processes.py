@@ -5,6 +5,12 @@ which then shuts them down in order) and get SIGTERM from the kernel if the laun
 (Linux `PR_SET_PDEATHSIG`), so no service outlives its launcher. A child can be started at a
 higher niceness (lower CPU priority) than the launcher's, set before `exec` so that even its
 imports run at that priority; raising niceness needs no privilege.
+
+Output never blocks: each child's pipe is read by its own thread, and every line (the
+children's and the launcher's own) goes to stdout through one bounded `LineOutlet`. When
+stdout does not take output (a pipe nobody reads, a terminal paused with Ctrl-S) lines are
+dropped and counted, and the launcher says how many once stdout takes output again; neither
+a child nor the launcher's own watch ever waits for it.
 """
 
 from __future__ import annotations
@@ -18,20 +24,30 @@ import sys
 import threading
 import time
 from collections.abc import Sequence
-from typing import TextIO
 
 from services.launcher.core import prefix_line
+from services.runtime.outlet import LineOutlet
 
 _PR_SET_PDEATHSIG = 1
-_print_lock = threading.Lock()
+_outlet: LineOutlet | None = None
+_outlet_lock = threading.Lock()
 
 
-def emit(line: str, stream: TextIO | None = None) -> None:
-    """Write one whole line to the launcher's output without interleaving."""
-    out = stream or sys.stdout
-    with _print_lock:
-        out.write(line)
-        out.flush()
+def stdout_outlet() -> LineOutlet:
+    """The launcher's non-blocking stdout (made on first use)."""
+    global _outlet
+    with _outlet_lock:
+        if _outlet is None:
+            _outlet = LineOutlet(sys.stdout.fileno(), max_lines=8192, name="stdout",
+                                 drop_notice="[launcher] {n} output line(s) dropped while stdout was "
+                                             "blocked ({total} in all)\n")
+        return _outlet
+
+
+def emit(line: str) -> None:
+    """Queue one whole line for the launcher's stdout; never blocks (dropped and counted when
+    stdout is blocked and the queue is full)."""
+    stdout_outlet().put(line)
 
 
 def _child_setup(nice: int = 0) -> None:  # runs in the child between fork and exec
@@ -129,3 +145,49 @@ class Child:
     def _join_reader(self) -> None:
         if self._reader is not None:
             self._reader.join(timeout=1.0)
+
+
+class RouterProcess:
+    """The stack's Zenoh router in its own process (`services.launcher.router`)."""
+
+    def __init__(self, config_json: str) -> None:
+        self.config_json = config_json
+        self.proc: subprocess.Popen[bytes] | None = None
+
+    def start(self, timeout_s: float = 10.0) -> None:
+        """Start the router and wait until it listens.
+
+        Raises:
+            RuntimeError: it did not come up; the message is the router's own reason.
+        """
+        import select
+
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "services.launcher.router"], stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, preexec_fn=_child_setup,
+        )
+        assert self.proc.stdin is not None and self.proc.stdout is not None
+        self.proc.stdin.write(self.config_json.encode())
+        self.proc.stdin.close()
+        ready, _, _ = select.select([self.proc.stdout], [], [], timeout_s)
+        line = self.proc.stdout.readline().decode(errors="replace") if ready else ""
+        if not line.startswith("ready"):
+            self.stop(1.0)
+            err = self.proc.stderr.read().decode(errors="replace").strip() if self.proc.stderr else ""
+            raise RuntimeError(err.splitlines()[-1] if err else f"the router did not answer within {timeout_s:.0f} s")
+
+    @property
+    def pid(self) -> int | None:
+        return self.proc.pid if self.proc else None
+
+    def stop(self, timeout_s: float = 5.0) -> int | None:
+        """SIGTERM, then SIGKILL after `timeout_s`; returns the exit code."""
+        if self.proc is None:
+            return None
+        if self.proc.poll() is None:
+            self.proc.send_signal(signal.SIGTERM)
+            try:
+                return self.proc.wait(timeout_s)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+        return self.proc.wait()

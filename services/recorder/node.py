@@ -86,6 +86,7 @@ def run_recorder(profile: Profile, output: Path, log_urdf: bool = True,
 
     with ServiceNode(SERVICE_NAME, profile) as node:
         subscriber = node.session.declare_subscriber(f"{profile.prefix}/**", on_sample)
+        node.ready()  # alive = listening: nothing may be published before the recorder hears it
         from services.recorder.writer import RecordingWriter  # Rerun, NumPy, PyArrow: after subscribing
 
         writer = RecordingWriter(output, profile.prefix, log_urdf=log_urdf, batch_period_s=flush_period_s,

@@ -12,7 +12,7 @@ import sys
 from collections.abc import Callable
 
 from services.runtime.errors import ServiceError
-from services.runtime.logs import setup_logging
+from services.runtime.logs import setup_logging, write_line
 from services.runtime.profile import DEFAULT_PROFILE, Profile, load_profile_file
 
 EXIT_OK = 0
@@ -79,11 +79,11 @@ def run_main(run: Callable[[argparse.Namespace], int], args: argparse.Namespace,
     except KeyboardInterrupt:
         return EXIT_OK
     except ServiceError as exc:
-        sys.stderr.write(f"{name}: error: {exc}\n")
+        write_line(f"{name}: error: {exc}", flush_s=1.0)
         return EXIT_BAD_INPUT if _is_input_error(exc) else EXIT_FAILURE
     except Exception as exc:  # a bug: say so in one line, details in the debug log
         log.debug("unhandled exception", exc_info=True)
-        sys.stderr.write(f"{name}: internal error: {type(exc).__name__}: {exc}\n")
+        write_line(f"{name}: internal error: {type(exc).__name__}: {exc}", flush_s=1.0)
         return EXIT_FAILURE
 
 

@@ -1,5 +1,10 @@
 """Structured logging for services: one line per record, key=value fields, optional JSON.
 
+Records never block the thread that logs them: `setup_logging` installs a handler that formats
+the record and hands the line to a bounded `LineOutlet` on stderr, whose own thread writes it.
+When stderr does not take output (a pipe nobody reads) lines are dropped and counted, and the
+count is written once stderr takes output again.
+
 Use `logging.getLogger(__name__).info("msg", extra={"fields": {"key": value}})` or the
 `kv()` helper; `RateLimitedLog` keeps a noisy condition (bad payloads, overruns) to at most
 one line per period per key while counting every occurrence.
@@ -7,12 +12,15 @@ one line per period per key while counting every occurrence.
 
 from __future__ import annotations
 
+import atexit
 import json
 import logging
 import sys
 import threading
 import time
 from typing import Any
+
+from services.runtime.outlet import LineOutlet
 
 _SERVICE_NAME = "handover"
 
@@ -53,11 +61,58 @@ def _fmt(value: Any) -> str:
     return f'"{text}"' if (" " in text or not text) else text
 
 
+class OutletHandler(logging.Handler):
+    """Formats a record in the caller's thread and queues the line; never waits for I/O."""
+
+    def __init__(self, outlet: LineOutlet) -> None:
+        super().__init__()
+        self.outlet = outlet
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            self.outlet.put(self.format(record) + "\n")
+        except Exception:  # a bad format argument must not reach the caller (nor block it)
+            self.outlet.put(f"unformattable log record from {record.name}: {record.msg!r}\n")
+
+
+_STDERR_OUTLET: LineOutlet | None = None
+
+
+def stderr_outlet() -> LineOutlet | None:
+    """The process's non-blocking stderr (made once; flushed for up to 1 s at exit), or None
+    when `sys.stderr` is not a file descriptor (an in-memory capture, as in some tests)."""
+    global _STDERR_OUTLET
+    if _STDERR_OUTLET is None:
+        try:
+            fd = sys.stderr.fileno()
+        except (AttributeError, OSError, ValueError):
+            return None
+        _STDERR_OUTLET = LineOutlet(fd, name="stderr",
+                                    drop_notice=f"{{n}} log line(s) of {_SERVICE_NAME} dropped: stderr was blocked\n")
+        atexit.register(_STDERR_OUTLET.flush, 1.0)
+    return _STDERR_OUTLET
+
+
+def write_line(text: str, flush_s: float = 0.0) -> None:
+    """Write one line to stderr without blocking (dropped and counted if it cannot go);
+    `flush_s` > 0 then waits up to that long for it to be written (exit paths only)."""
+    line = text if text.endswith("\n") else text + "\n"
+    outlet = stderr_outlet()
+    if outlet is None:
+        sys.stderr.write(line)
+        return
+    outlet.put(line)
+    if flush_s > 0:
+        outlet.flush(flush_s)
+
+
 def setup_logging(service: str, level: str = "info", json_lines: bool = False) -> None:
-    """Configure the root logger for a service process (stderr, one line per record)."""
+    """Configure the root logger for a service process: one line per record to stderr,
+    through a bounded non-blocking queue (see the module docstring)."""
     global _SERVICE_NAME
     _SERVICE_NAME = service
-    handler = logging.StreamHandler(sys.stderr)
+    outlet = stderr_outlet()
+    handler: logging.Handler = OutletHandler(outlet) if outlet is not None else logging.StreamHandler(sys.stderr)
     handler.setFormatter(_Formatter(json_lines))
     root = logging.getLogger()
     root.handlers[:] = [handler]

@@ -79,8 +79,9 @@ class TypedSubscription(Generic[M]):
     bounded queue read by the service thread with `latest()` or `drain()`.
     """
 
-    def __init__(self, node: ServiceNode, topic: Topic, queue_size: int) -> None:
+    def __init__(self, node: ServiceNode, topic: Topic, queue_size: int, wake: bool = True) -> None:
         self.topic = topic
+        self.wake = wake
         self.key = topic.key(node.profile.prefix)
         self.stats = SubscriptionStats()
         self._node = node
@@ -119,7 +120,8 @@ class TypedSubscription(Generic[M]):
             self.stats.overflowed += 1
         self._queue.append(item)
         self._latest = item
-        self._node._notify()
+        if self.wake:
+            self._node._notify()
 
     def latest(self) -> Received[M] | None:
         """The most recent message received so far (None before the first)."""
@@ -242,9 +244,15 @@ class ServiceNode:
             for tick in node.loop(100.0):
                 ...
 
-    Entering opens the session (client mode, connecting to the profile's router), declares
-    the liveliness token ``<prefix>/alive/<name>`` and installs SIGINT/SIGTERM handlers that
-    request shutdown. Leaving undeclares everything and closes the session, from this thread.
+    Entering opens the session (client mode, connecting to the profile's router) and installs
+    SIGINT/SIGTERM handlers that request shutdown. The liveliness token
+    ``<prefix>/alive/<name>`` is declared by `ready()`, which a service calls once it has
+    declared its subscriptions (and which its first `wait()` or `loop()` calls otherwise): alive
+    means listening. Leaving undeclares everything and closes the session, from this thread.
+
+    A subscription wakes `wait()` only if declared with ``wake=True`` (the default): high-rate
+    streams that a loop reads at its own tick (``latest()``, ``drain()``) should pass
+    ``wake=False`` so that each message does not cost the service a thread switch.
 
     A heartbeat thread sends the service's heartbeat (`runtime/heartbeat`,
     `HEARTBEAT_PERIOD_S`) while the process runs, so a frozen (SIGSTOP) or dead process falls
@@ -299,9 +307,6 @@ class ServiceNode:
             for sig in (signal.SIGINT, signal.SIGTERM):
                 self._previous_handlers[sig] = signal.signal(sig, self._on_signal)
         self._session = open_session(self.profile, self.mode, self.connect_timeout_s, user=self.name)
-        self._token = self._session.liveliness().declare_token(
-            alive_key(self.name, self.profile.prefix)
-        )
         self._opened_s = time.monotonic()
         self._heartbeat_pub = self.publisher(HEARTBEAT)
         self.heartbeat()
@@ -335,6 +340,17 @@ class ServiceNode:
             signal.signal(sig, handler)
         self._previous_handlers.clear()
 
+    def ready(self) -> None:
+        """Declare the liveliness token: call once every subscription is declared (alive means
+        listening). Idempotent; the first `wait()` or `loop()` calls it too."""
+        if self._token is None:
+            self._token = self.session.liveliness().declare_token(alive_key(self.name, self.profile.prefix))
+
+    @property
+    def is_ready(self) -> bool:
+        """True once the liveliness token is declared."""
+        return self._token is not None
+
     def _on_signal(self, signum: int, _frame: object) -> None:
         log.info("%s received %s, shutting down", self.name, signal.Signals(signum).name)
         self.request_stop()
@@ -360,10 +376,15 @@ class ServiceNode:
         self._publishers.append(pub)
         return pub
 
-    def subscribe(self, topic: Topic, queue_size: int = 256) -> TypedSubscription[Any]:
-        sub: TypedSubscription[Any] = TypedSubscription(self, topic, queue_size)
+    def subscribe(self, topic: Topic, queue_size: int = 256, wake: bool = True) -> TypedSubscription[Any]:
+        """Subscribe to `topic`; `wake=False`: its messages do not wake `wait()`."""
+        sub: TypedSubscription[Any] = TypedSubscription(self, topic, queue_size, wake)
         self._subscriptions.append(sub)
         return sub
+
+    def wake_up(self) -> None:
+        """Wake `wait()` now (thread-safe; cheap enough for a Zenoh callback)."""
+        self._notify()
 
     def _notify(self) -> None:
         with self._wake:
@@ -404,6 +425,8 @@ class ServiceNode:
         Returns:
             True when new data arrived since the last call.
         """
+        if self._token is None:
+            self.ready()
         with self._wake:
             if not self._new_data and not self.stop_event.is_set():
                 self._wake.wait(timeout_s)
@@ -412,7 +435,9 @@ class ServiceNode:
         return got
 
     def loop(self, rate_hz: float) -> Iterator[int]:
-        """A fixed-rate loop (see `RateLoop`) that ends on shutdown."""
+        """A fixed-rate loop (see `RateLoop`) that ends on shutdown (declares the liveliness
+        token first if `ready()` was not called)."""
+        self.ready()
         loop = RateLoop(rate_hz, self.stop_event, name=f"{self.name} {rate_hz:g} Hz loop")
         self.loops.append(loop)
         yield from loop

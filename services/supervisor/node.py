@@ -63,14 +63,20 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
         state_pub = node.publisher(topics.SUPERVISOR_STATE)
         episode_pub = node.publisher(topics.EPISODE)
         releases = node.subscribe(topics.GRIPPER_RELEASE, queue_size=16)
-        subs = {name: node.subscribe(t, queue_size=q) for name, t, q in (
+        # Read at the 100 Hz tick: only a release event (and a liveliness change) wakes the loop.
+        subs = {name: node.subscribe(t, queue_size=q, wake=False) for name, t, q in (
             ("human", topics.HUMAN, 8), ("obj", topics.OBJECT, 8), ("target", topics.TRANSFER, 8),
             ("motion", topics.MOTION_STATUS, 64), ("gripper", topics.GRIPPER_STATE, 64),
             ("wrench", topics.WRIST_WRENCH, 64), ("joints", topics.JOINT_STATE, 64),
         )}
-        heartbeats = node.subscribe(topics.HEARTBEAT, queue_size=512)
-        watcher = LivelinessWatcher(node.session, profile.prefix,
-                                    on_change=lambda n, a: liveliness_events.put((n, a, time.monotonic())))
+        heartbeats = node.subscribe(topics.HEARTBEAT, queue_size=512, wake=False)
+
+        def on_liveliness(name: str, alive: bool) -> None:
+            liveliness_events.put((name, alive, time.monotonic()))
+            node.wake_up()
+
+        watcher = LivelinessWatcher(node.session, profile.prefix, on_change=on_liveliness)
+        node.ready()
         snap = Snapshot(now_s=time.monotonic())
         targets = TargetFilter()
         ready_since: float | None = None

@@ -1,0 +1,152 @@
+"""Per-service CPU of a running `handover-up`, sampled with psutil.
+
+`run_stack(...)` starts `handover-up` (any job) with its output to a file, waits for the
+``all N services alive`` line, and measures each child process's CPU time (user + system) over a
+window: idle for `--job none`, or from the first episode line to the summary for `--job handover`.
+The launcher process itself (and its router child, when there is one) is measured too.
+
+Run directly for a quick look::
+
+    python -m tests.bench.cpu_probe --job none --seconds 20
+    python -m tests.bench.cpu_probe --job handover
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import psutil
+
+_ALIVE = re.compile(r"all \d+ services alive")
+_STARTED = re.compile(r"started (?P<name>\w+) \(pid (?P<pid>\d+)\)")
+_EPISODE_START = re.compile(r"episode 1: locate")
+_SUMMARY = re.compile(r"\] summary: |exit \d+")
+
+
+@dataclass
+class CpuWindow:
+    """CPU use of every process of one stack over one window.
+
+    Attributes:
+        seconds: length of the window, s (wall clock).
+        cores: per process name, CPU seconds / window seconds (1.0 = one core busy).
+        recording_bytes: size of the run's recording at the end of the window, bytes.
+        output: the launcher's whole output.
+    """
+
+    seconds: float
+    cores: dict[str, float] = field(default_factory=dict)
+    recording_bytes: int = 0
+    output: str = ""
+
+    @property
+    def total_cores(self) -> float:
+        return sum(self.cores.values())
+
+
+def _cpu_s(proc: psutil.Process) -> float:
+    try:
+        t = proc.cpu_times()
+        return t.user + t.system
+    except psutil.Error:
+        return float("nan")
+
+
+def _wait_for(path: Path, pattern: re.Pattern[str], proc: subprocess.Popen, timeout_s: float) -> str:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        text = path.read_text(errors="replace")
+        if pattern.search(text):
+            return text
+        if proc.poll() is not None:
+            raise RuntimeError(f"handover-up exited {proc.returncode} early:\n{text[-3000:]}")
+        time.sleep(0.05)
+    raise RuntimeError(f"no line matching {pattern.pattern!r} within {timeout_s} s:\n"
+                       f"{path.read_text(errors='replace')[-3000:]}")
+
+
+def _processes(launcher: psutil.Process, text: str) -> dict[str, psutil.Process]:
+    procs = {"launcher": launcher}
+    for match in _STARTED.finditer(text):
+        try:
+            procs[match["name"]] = psutil.Process(int(match["pid"]))
+        except psutil.Error:
+            pass
+    known = {p.pid for p in procs.values()}
+    for child in launcher.children():
+        if child.pid not in known:  # e.g. the router process
+            procs[f"other:{child.name()}:{child.pid}"] = child
+    return procs
+
+
+def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: float = 3.0,
+              extra_args: list[str] | None = None, timeout_s: float = 120.0) -> CpuWindow:
+    """Start `handover-up --job JOB`, measure per-process CPU over the window, stop it.
+
+    `job="none"`: the window starts `settle_s` after every service is alive and lasts `idle_s`.
+    `job="handover"`: the window runs from the first episode's ``locate`` line to the summary.
+    """
+    out_path = tmp_dir / f"handover-up-{job}.log"
+    cmd = [sys.executable, "-m", "services.launcher", "--port", "auto", "--job", job,
+           "--recording-dir", str(tmp_dir), "--run-id", f"cpu-{job}", *(extra_args or [])]
+    with open(out_path, "w") as out:
+        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+    try:
+        launcher = psutil.Process(proc.pid)
+        text = _wait_for(out_path, _ALIVE, proc, timeout_s)
+        if job == "none":
+            time.sleep(settle_s)
+            text = out_path.read_text(errors="replace")
+        else:
+            text = _wait_for(out_path, _EPISODE_START, proc, timeout_s)
+        procs = _processes(launcher, text)
+        before = {name: _cpu_s(p) for name, p in procs.items()}
+        t0 = time.monotonic()
+        if job == "none":
+            time.sleep(idle_s)
+        else:
+            _wait_for(out_path, _SUMMARY, proc, timeout_s)
+        after = {name: _cpu_s(p) for name, p in procs.items()}
+        seconds = time.monotonic() - t0
+        recordings = sorted(tmp_dir.glob(f"cpu-{job}*.rrd"))
+        window = CpuWindow(seconds, {n: (after[n] - before[n]) / seconds for n in procs},
+                           sum(r.stat().st_size for r in recordings))
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(30)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    window.output = out_path.read_text(errors="replace")
+    return window
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--job", choices=["none", "handover"], default="none")
+    parser.add_argument("--seconds", type=float, default=20.0, help="idle window, s (--job none)")
+    parser.add_argument("--dir", type=Path, default=Path("/tmp/cpu_probe"))
+    args = parser.parse_args(argv)
+    args.dir.mkdir(parents=True, exist_ok=True)
+    w = run_stack(args.dir, args.job, args.seconds)
+    print(json.dumps({"seconds": round(w.seconds, 2), "total_cores": round(w.total_cores, 3),
+                      "recording_MB": round(w.recording_bytes / 1e6, 2),
+                      "cores": {k: round(v, 3) for k, v in sorted(w.cores.items(), key=lambda kv: -kv[1])}},
+                     indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    os.environ.setdefault("PYTHONUNBUFFERED", "1")
+    raise SystemExit(main())
