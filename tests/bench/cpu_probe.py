@@ -39,18 +39,25 @@ class CpuWindow:
     Attributes:
         seconds: length of the window, s (wall clock).
         cores: per process name, CPU seconds / window seconds (1.0 = one core busy).
-        recording_bytes: size of the run's recording at the end of the window, bytes.
+        recording_bytes: size of the run's recording once the stack has stopped, bytes.
+        run_seconds: wall time from the launch to the stack's exit, s (the recording's span).
         output: the launcher's whole output.
     """
 
     seconds: float
     cores: dict[str, float] = field(default_factory=dict)
     recording_bytes: int = 0
+    run_seconds: float = 0.0
     output: str = ""
 
     @property
     def total_cores(self) -> float:
         return sum(self.cores.values())
+
+    @property
+    def recording_bytes_per_s(self) -> float:
+        """Recording size per second of run, bytes/s."""
+        return self.recording_bytes / self.run_seconds if self.run_seconds > 0 else float("nan")
 
 
 def _cpu_s(proc: psutil.Process) -> float:
@@ -98,6 +105,7 @@ def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: 
     out_path = tmp_dir / f"handover-up-{job}.log"
     cmd = [sys.executable, "-m", "services.launcher", "--port", "auto", "--job", job,
            "--recording-dir", str(tmp_dir), "--run-id", f"cpu-{job}", *(extra_args or [])]
+    t_launch = time.monotonic()
     with open(out_path, "w") as out:
         proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
     try:
@@ -117,9 +125,7 @@ def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: 
             _wait_for(out_path, _SUMMARY, proc, timeout_s)
         after = {name: _cpu_s(p) for name, p in procs.items()}
         seconds = time.monotonic() - t0
-        recordings = sorted(tmp_dir.glob(f"cpu-{job}*.rrd"))
-        window = CpuWindow(seconds, {n: (after[n] - before[n]) / seconds for n in procs},
-                           sum(r.stat().st_size for r in recordings))
+        window = CpuWindow(seconds, {n: (after[n] - before[n]) / seconds for n in procs})
     finally:
         if proc.poll() is None:
             proc.send_signal(signal.SIGINT)
@@ -128,6 +134,8 @@ def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: 
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
+    window.run_seconds = time.monotonic() - t_launch
+    window.recording_bytes = sum(r.stat().st_size for r in tmp_dir.glob(f"handover-cpu-{job}*.rrd"))
     window.output = out_path.read_text(errors="replace")
     return window
 
@@ -142,6 +150,7 @@ def main(argv: list[str] | None = None) -> int:
     w = run_stack(args.dir, args.job, args.seconds)
     print(json.dumps({"seconds": round(w.seconds, 2), "total_cores": round(w.total_cores, 3),
                       "recording_MB": round(w.recording_bytes / 1e6, 2),
+                      "recording_MB_per_s": round(w.recording_bytes_per_s / 1e6, 3),
                       "cores": {k: round(v, 3) for k, v in sorted(w.cores.items(), key=lambda kv: -kv[1])}},
                      indent=1))
     return 0
