@@ -1,7 +1,11 @@
 """Depth rendering of the scene as a Kinect v1 sees it (numpy ray casting).
 
-Each primitive is intersected only with the rays inside its projected bounding rectangle,
-so a frame costs a few milliseconds. Depths are z along the optical axis (metres).
+Each primitive is intersected only with the rays inside its projected bounding rectangle
+(exact bounds of its end spheres, so no hit lies outside). Depths are z along the optical
+axis (metres). `DepthRenderer.render` casts what it is given every call: the reference.
+Frame after frame, `robot_sim.kinect.scene_depth.SceneDepthRenderer` casts only what moved,
+and `robot_sim.kinect.quantise.DepthQuantiser` gives `kinect_depth_mm`'s readings from kept
+buffers; both give the same values as the plain functions here.
 
 Noise model (Khoshelham & Elberink 2012, "Accuracy and resolution of Kinect depth data"):
 random error σ_z = 1.425e-3 · z² (m), then the disparity is quantised to 1/8 pixel, which
@@ -13,6 +17,7 @@ pixels drops out.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -22,6 +27,12 @@ from robot_sim.kinect.shapes import Box, Capsule, ray_box, ray_capsule, ray_hori
 
 #: Random depth error coefficient (m⁻¹): σ_z = coefficient · z².
 DEPTH_NOISE_COEFF_PER_M = 1.425e-3
+#: A primitive that comes within this distance (m) of the camera's plane is cast over the
+#: whole image (its projection is unbounded or nearly so).
+NEAR_PLANE_M = 0.05
+
+#: A pixel rectangle (u0, u1, v0, v1): columns u0..u1-1, rows v0..v1-1.
+Rect = tuple[int, int, int, int]
 
 
 class DepthRenderer:
@@ -34,26 +45,72 @@ class DepthRenderer:
     def __init__(self, camera: KinectCamera) -> None:
         self.camera = camera
         self.rays = camera.rays_base()
-        self._dd = np.einsum("...i,...i->...", self.rays, self.rays)
+        self.dd = np.einsum("...i,...i->...", self.rays, self.rays)
         self._h, self._w = camera.height_px, camera.width_px
 
-    def _rect(self, uv: list[list[float]], z: list[float], radius_m: float) -> tuple[int, int, int, int] | None:
-        """Pixel rectangle (u0, u1, v0, v1) that holds the projection of spheres of
-        `radius_m` around points projected to `uv` (pixels) at depths `z` (m); None when
-        nothing can be visible."""
-        if max(z) <= 0.0:
-            return None
-        if min(z) <= 0.05:
-            return 0, self._w, 0, self._h
-        fx = self.camera.fx_px
-        pads = [1.3 * radius_m * fx / zi + 2.0 for zi in z]
-        u0 = max(math.floor(min(p[0] - d for p, d in zip(uv, pads, strict=True))), 0)
-        u1 = min(math.ceil(max(p[0] + d for p, d in zip(uv, pads, strict=True))) + 1, self._w)
-        v0 = max(math.floor(min(p[1] - d for p, d in zip(uv, pads, strict=True))), 0)
-        v1 = min(math.ceil(max(p[1] + d for p, d in zip(uv, pads, strict=True))) + 1, self._h)
-        if u0 >= u1 or v0 >= v1:
-            return None
-        return u0, u1, v0, v1
+    def _bounds(self, centres_m: np.ndarray, radii_m: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Exact image bounds of spheres (centres (N, 3) m in `base`, radii (N,) m).
+
+        A plane through the optical centre that touches a sphere at (x, z) (optical frame,
+        z > r) has slope k = (x z ± r sqrt(x² + z² − r²)) / (z² − r²); the pixel column of
+        that plane is fx k + cx (rows alike with y, fy, cy).
+
+        Returns:
+            (u_lo, u_hi, v_lo, v_hi) in pixels, `near` (the sphere reaches within
+            `NEAR_PLANE_M` of the camera's plane: bounds unusable) and `behind` (the whole
+            sphere is behind the camera), each (N,).
+        """
+        p = (np.asarray(centres_m, float) - self.camera.position_m) @ self.camera.rotation
+        x, y, z = p[:, 0], p[:, 1], p[:, 2]
+        r = np.asarray(radii_m, float)
+        behind = z + r <= 0.0
+        near = z - r <= NEAR_PLANE_M
+        den = np.where(near, 1.0, z * z - r * r)
+        bounds = []
+        for w, f, c in ((x, self.camera.fx_px, self.camera.cx_px), (y, self.camera.fy_px, self.camera.cy_px)):
+            spread = r * np.sqrt(np.maximum(w * w + den, 0.0))
+            bounds += [f * (w * z - spread) / den + c, f * (w * z + spread) / den + c]
+        return (*bounds, near, behind)
+
+    def _rects(self, centres_m: np.ndarray, radii_m: np.ndarray, groups: int) -> list[Rect | None]:
+        """Pixel rectangles (u0, u1, v0, v1), end-exclusive, that hold the projections of
+        `groups` convex hulls of the same number of spheres each (rows of `centres_m` in
+        group order); None where nothing can be visible. The projection of a convex set in
+        front of the camera is the convex hull of its parts' projections, so the union of
+        the spheres' bounds holds it; one pixel of margin on each side absorbs rounding."""
+        if groups == 0:
+            return []
+        u_lo, u_hi, v_lo, v_hi, near, behind = (a.reshape(groups, -1) for a in self._bounds(centres_m, radii_m))
+        rects: list[Rect | None] = []
+        for g in range(groups):
+            if behind[g].all():
+                rects.append(None)
+            elif near[g].any():
+                rects.append((0, self._w, 0, self._h))
+            else:
+                u0 = max(math.floor(u_lo[g].min()) - 1, 0)
+                u1 = min(math.ceil(u_hi[g].max()) + 2, self._w)
+                v0 = max(math.floor(v_lo[g].min()) - 1, 0)
+                v1 = min(math.ceil(v_hi[g].max()) + 2, self._h)
+                rects.append((u0, u1, v0, v1) if u0 < u1 and v0 < v1 else None)
+        return rects
+
+    def capsule_rects(self, capsules: Sequence[Capsule]) -> list[Rect | None]:
+        """Conservative pixel rectangle of each capsule (None: not in view)."""
+        if not capsules:
+            return []
+        ends = np.array([(c.a_m, c.b_m) for c in capsules], float).reshape(-1, 3)
+        radii = np.repeat([c.radius_m for c in capsules], 2)
+        return self._rects(ends, radii, len(capsules))
+
+    def box_rects(self, boxes: Sequence[Box]) -> list[Rect | None]:
+        """Conservative pixel rectangle of each box, from its 8 corners (None: not in view)."""
+        if not boxes:
+            return []
+        corners = np.array([[(x, y, z) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]
+                            for lo, hi in ((np.asarray(b.lower_m, float), np.asarray(b.upper_m, float))
+                                           for b in boxes)]).reshape(-1, 3)
+        return self._rects(corners, np.zeros(len(corners)), len(boxes))
 
     def render(
         self,
@@ -79,22 +136,13 @@ class DepthRenderer:
             depth = np.full((self._h, self._w), np.inf)
         if floor_z_m is not None:
             np.minimum(depth, ray_horizontal_plane(origin, self.rays, floor_z_m), out=depth)
-        if capsules:
-            ends = np.array([(c.a_m, c.b_m) for c in capsules], float).reshape(-1, 3)
-            uv, z = self.camera.project(ends)
-            uv_l, z_l = uv.tolist(), z.tolist()
-            for i, capsule in enumerate(capsules):
-                rect = self._rect(uv_l[2 * i:2 * i + 2], z_l[2 * i:2 * i + 2], capsule.radius_m)
-                if rect is None:
-                    continue
-                u0, u1, v0, v1 = rect
-                t = ray_capsule(origin, self.rays[v0:v1, u0:u1], capsule, self._dd[v0:v1, u0:u1])
-                np.minimum(depth[v0:v1, u0:u1], t, out=depth[v0:v1, u0:u1])
-        for box in boxes:
-            lo, hi = np.asarray(box.lower_m, float), np.asarray(box.upper_m, float)
-            corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
-            uv, z = self.camera.project(corners)
-            rect = self._rect(uv.tolist(), z.tolist(), 0.0)
+        for capsule, rect in zip(capsules, self.capsule_rects(capsules), strict=True):
+            if rect is None:
+                continue
+            u0, u1, v0, v1 = rect
+            t = ray_capsule(origin, self.rays[v0:v1, u0:u1], capsule, self.dd[v0:v1, u0:u1])
+            np.minimum(depth[v0:v1, u0:u1], t, out=depth[v0:v1, u0:u1])
+        for box, rect in zip(boxes, self.box_rects(boxes), strict=True):
             if rect is None:
                 continue
             u0, u1, v0, v1 = rect

@@ -212,6 +212,16 @@ class ReceiverBody:
 
     def capsules(self, joints: dict[str, np.ndarray]) -> list[Capsule]:
         """Capsules (metres) that make up the body's surface for the given joints."""
+        return self.moving_capsules(joints) + self._leg_capsules(joints)
+
+    def static_capsules(self) -> list[Capsule]:
+        """The capsules that never move: the legs (`joints` never moves hips, knees, feet),
+        equal to the leg capsules of `capsules(joints(hand))` for any hand."""
+        return self._leg_capsules(self._static)
+
+    def moving_capsules(self, joints: dict[str, np.ndarray]) -> list[Capsule]:
+        """The capsules of the head, neck, trunk and arms (m) for the given joints: those that
+        follow the right hand (the arm itself, and the upper body when it leans)."""
         h = self.size.height_m
         c = []
         up = np.array([0.0, 0.0, 1.0])
@@ -230,6 +240,13 @@ class ReceiverBody:
             fore = hd - el
             fore /= max(np.linalg.norm(fore), 1e-9)
             c.append(Capsule(hd - 0.02 * h * fore, hd + 0.025 * h * fore, 0.025 * h))
+        return c
+
+    def _leg_capsules(self, joints: dict[str, np.ndarray]) -> list[Capsule]:
+        h = self.size.height_m
+        up = np.array([0.0, 0.0, 1.0])
+        c = []
+        for side in ("left", "right"):
             hip, kn, ft = (joints[f"{side}_{n}"] for n in ("hip", "knee", "foot"))
             c.append(Capsule(hip, kn, 0.040 * h))
             c.append(Capsule(kn, ft, 0.030 * h))

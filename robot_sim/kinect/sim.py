@@ -9,6 +9,12 @@ Use::
     depth_pub.put(**frame.depth_fields)                  # bus_schema.messages.DepthImage
     frame.truth.right_hand_m                             # ground truth (for SimTruth)
 
+Depth cost: the static scene (floor, table, Baxter's torso, the receiver's legs) is cast
+once; each frame casts only the primitives that moved since the previous frame and reuses
+the image when nothing moved (`robot_sim.kinect.scene_depth`), and quantises into kept
+buffers (`robot_sim.kinect.quantise`). The images equal those of the full ray cast
+(`KinectSim.reference_depth_m` with `kinect_depth_mm`) bit for bit, noise included.
+
 Frames: everything in Baxter's `base` (x forward, y left, z up), metres; the camera's pose
 and intrinsics are in `robot_sim.kinect.camera`, the table and the receiver's placement in
 `robot_sim.scene`.
@@ -21,12 +27,13 @@ from typing import Any, Literal
 
 import numpy as np
 
-from bus_schema.messages import SKELETON_JOINTS
+from bus_schema.messages import SKELETON_JOINTS, SkeletonJoint
 from robot_sim import scene
 from robot_sim.kinect.camera import KinectCamera
-from robot_sim.kinect.depth import DepthRenderer, kinect_depth_mm
+from robot_sim.kinect.quantise import DepthQuantiser
 from robot_sim.kinect.receiver import BodySize, ReceiverBody, min_jerk
-from robot_sim.kinect.robot_geometry import ArmGeometry
+from robot_sim.kinect.robot_geometry import TORSO_CAPSULES, ArmGeometry
+from robot_sim.kinect.scene_depth import SceneDepthRenderer, StaticScene, render_reference
 from robot_sim.kinect.shapes import Box, Capsule
 from robot_sim.kinect.skeleton_model import SkeletonErrorModel, SkeletonErrorParams
 
@@ -115,8 +122,8 @@ class KinectFrame:
     Attributes:
         skeleton_fields: keyword fields of `bus_schema.messages.Skeleton` (no header).
         depth_fields: keyword fields of `bus_schema.messages.DepthImage` (no header).
-        depth_mm: the depth image (H, W) uint16 mm (0 = no reading), same data as
-            `depth_fields["depth_mm"]`.
+        depth_mm: the depth image (H, W) uint16 mm (0 = no reading): a read-only view of
+            the bytes of `depth_fields["depth_mm"]`.
         truth: ground truth.
     """
 
@@ -149,12 +156,22 @@ class KinectSim:
         self.rng = np.random.default_rng(seed)
         self.body = ReceiverBody(BodySize(self.scenario.height_m, self.scenario.posture))
         self.errors = SkeletonErrorModel(self.scenario.skeleton_errors, self.rng)
-        self.renderer = DepthRenderer(self.camera)
         self._table_top, self._table_legs = table_boxes_and_legs()
-        self._camera_orientation_xyzw = self.camera.orientation_xyzw  # the camera does not move
-        #: The floor and the table do not move: cast once, drawn behind every frame.
-        self._static_depth_m = self.renderer.render(self._table_legs, [self._table_top],
-                                                    floor_z_m=-scene.BASE_HEIGHT_ABOVE_FLOOR_M)
+        #: What never moves (floor, table, Baxter's torso, the receiver's legs): cast once.
+        self.static_scene = StaticScene(
+            capsules=(*self._table_legs, *TORSO_CAPSULES, *self.body.static_capsules()),
+            boxes=(self._table_top,), floor_z_m=-scene.BASE_HEIGHT_ABOVE_FLOOR_M)
+        self.depth = SceneDepthRenderer(self.camera, self.static_scene)
+        self.renderer = self.depth.renderer
+        dropout = self.scenario.depth_dropout_fraction if self.scenario.depth_noise else 0.0
+        self._quantiser = DepthQuantiser((self.camera.height_px, self.camera.width_px), dropout)
+        c = self.camera
+        #: The DepthImage fields that do not change (the camera does not move).
+        self._depth_constant_fields = {
+            "width": c.width_px, "height": c.height_px, "fx": c.fx_px, "fy": c.fy_px, "cx": c.cx_px,
+            "cy": c.cy_px, "camera_position_m": tuple(float(v) for v in c.position_m),
+            "camera_orientation_xyzw": c.orientation_xyzw,
+        }
         self._hand_start = self.body.rest_hand_m
         target = self.scenario.hand_target_base_m
         self._hand_target = None if target is None else np.asarray(target, float)
@@ -179,6 +196,21 @@ class KinectSim:
         s = min_jerk((t_s - self._reach_start_s) / self._reach_duration_s)
         return self._hand_start + s * (self._hand_target - self._hand_start)
 
+    def moving_shapes(self, joints: dict[str, np.ndarray], q_arm_rad: np.ndarray,
+                      object_position_m: np.ndarray) -> tuple[list[Capsule], list[Box]]:
+        """The primitives that can move (m, `base`): the receiver's head, trunk and arms for
+        `joints`, the arm's links at `q_arm_rad` (rad) and the object's box at
+        `object_position_m`; the rest of the scene is `static_scene`."""
+        capsules = self.body.moving_capsules(joints) + self.arm.capsules(q_arm_rad, include_torso=False)
+        return capsules, [object_box(object_position_m, self.scenario.object_size_m)]
+
+    def reference_depth_m(self, joints: dict[str, np.ndarray], q_arm_rad: np.ndarray,
+                          object_position_m: np.ndarray) -> np.ndarray:
+        """Ideal depth (H, W), m, of the same scene as `moving_shapes`, cast whole without any
+        cache (`render_reference`): what `step` renders, for tests and benchmarks."""
+        return render_reference(self.renderer, self.static_scene, *self.moving_shapes(joints, q_arm_rad,
+                                                                                       object_position_m))
+
     def step(
         self,
         t_s: float,
@@ -201,32 +233,18 @@ class KinectSim:
         joints_arr = np.stack([joints[n] for n in SKELETON_JOINTS])
         tool = self.arm.tool_position(q_arm_rad)
         obj = scene.OBJECT_PICK_BASE_M if object_position_m is None else np.asarray(object_position_m, float)
-        capsules = self.body.capsules(joints) + self.arm.capsules(q_arm_rad)
-        boxes = [object_box(obj, self.scenario.object_size_m)]
-        depth_m = self.renderer.render(capsules, boxes, background=self._static_depth_m)
+        depth_m = self.depth.render(*self.moving_shapes(joints, q_arm_rad, obj))
         noise_rng = self.rng if self.scenario.depth_noise else None
-        depth_mm = kinect_depth_mm(depth_m, noise_rng, self.scenario.depth_dropout_fraction if noise_rng else 0.0)
+        payload = self._quantiser.quantise(depth_m, noise_rng, changed=self.depth.changed)
+        depth_mm = np.frombuffer(payload, "<u2").reshape(depth_m.shape)
         tracked, est, conf = self.errors.step(t_s, joints_arr, tool)
         skeleton_fields: dict[str, Any] = {"tracked": tracked, "user_id": 1 if tracked else 0, "joints": []}
         if tracked:
-            from bus_schema.messages import SkeletonJoint
-
             skeleton_fields["joints"] = [
                 SkeletonJoint(name=n, position_m=tuple(float(c) for c in est[i]), confidence=float(conf[i]))
                 for i, n in enumerate(SKELETON_JOINTS)
             ]
-        c = self.camera
-        depth_fields = {
-            "width": c.width_px,
-            "height": c.height_px,
-            "depth_mm": depth_mm.astype("<u2").tobytes(),
-            "fx": c.fx_px,
-            "fy": c.fy_px,
-            "cx": c.cx_px,
-            "cy": c.cy_px,
-            "camera_position_m": tuple(float(v) for v in c.position_m),
-            "camera_orientation_xyzw": self._camera_orientation_xyzw,
-        }
+        depth_fields = {**self._depth_constant_fields, "depth_mm": payload}
         truth = KinectTruth(
             t_s=float(t_s),
             joints_m=joints,

@@ -32,8 +32,9 @@ def run_kinect(profile: Profile, config: KinectConfig) -> int:
     warn = RateLimitedLog(log, 5.0)
     frames = skipped = failed = 0
     with ServiceNode(SERVICE_NAME, profile) as node:
-        joint_state = node.subscribe(topics.JOINT_STATE, queue_size=1)
-        truth = node.subscribe(topics.SIM_TRUTH, queue_size=1)
+        # 100 Hz streams read with latest() at the 30 Hz tick: they must not wake the loop.
+        joint_state = node.subscribe(topics.JOINT_STATE, queue_size=1, wake=False)
+        truth = node.subscribe(topics.SIM_TRUTH, queue_size=1, wake=False)
         skeleton_pub = node.publisher(topics.SKELETON)
         depth_pub = node.publisher(topics.DEPTH)
         truth_pub = node.publisher(topics.KINECT_TRUTH)

@@ -2,8 +2,9 @@
 plays the robot and the Kinect driver in one process).
 
 The stand-alone service (`services.sim_kinect.node`) is the normal way to run the simulated
-Kinect: a depth frame takes ~16 ms, and on a thread it competes through the GIL with the
-host's control loop. The fake Baxter is a test double whose timing matters less.
+Kinect: a depth frame takes 1.5–3 ms (docs/sim_kinect.md, "Rendering cost"), and on a
+thread it competes through the GIL with the host's control loop. The fake Baxter is a test
+double whose timing matters less.
 
 Each frame reads the latest arm posture (and, in a handover scene, the receiver's hand and
 the object) handed over by the host's loop, renders skeleton and depth with
