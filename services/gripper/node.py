@@ -164,7 +164,8 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
                 session.declare_subscriber(topics.OBJECT_MOTION.key(profile.prefix), loop.on_motion),
             ]
         else:  # one thread hop more: decode in Zenoh's thread, step in the main thread
-            queued = (node.subscribe(topics.WRIST_WRENCH), node.subscribe(topics.OBJECT_MOTION))
+            # A wrench sample wakes a step; the object motion is read at that step.
+            queued = (node.subscribe(topics.WRIST_WRENCH), node.subscribe(topics.OBJECT_MOTION, wake=False))
         episode_id: int | None = None
         log.info("gripper running", extra=kv(controller=config.controller, rate_hz=config.rate_hz,
                                              wrench_timeout_s=config.wrench_timeout_s,

@@ -24,7 +24,7 @@ from typing import Any, Generic, TypeVar
 
 import zenoh
 
-from bus_schema import Topic, alive_key, decode, encode_for
+from bus_schema import MAX_PAYLOAD_BYTES, Topic, alive_key, decode, encode_for
 from bus_schema.codec import DecodeError
 from bus_schema.messages import Message
 from bus_schema.topics import HEARTBEAT
@@ -34,7 +34,7 @@ from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile, zenoh_config
 from services.runtime.stamps import SENDER_CLOCK
-from services.runtime.starvation import LATE_WAKE_WARNING_S, WakeSampler, late_s, late_wake_report
+from services.runtime.starvation import LATE_WAKE_REPORT_S, LATE_WAKE_WARNING_S, WakeSampler, late_wake_report
 
 #: Period of every service's heartbeat (`runtime/heartbeat`), s.
 HEARTBEAT_PERIOD_S = 0.05
@@ -74,61 +74,103 @@ class SubscriptionStats:
 class TypedSubscription(Generic[M]):
     """Decode-at-the-edge subscription to one topic.
 
-    The Zenoh callback decodes the payload with the topic's typed decoder; a payload that
-    does not decode is counted, logged (rate-limited) and dropped. Decoded messages go to a
-    bounded queue read by the service thread with `latest()` or `drain()`.
+    Each payload is decoded with the topic's typed decoder; a payload that does not decode is
+    counted, logged (rate-limited) and dropped. Decoded messages go to a bounded queue read by
+    the service thread with `latest()` or `drain()`.
+
+    Two ways in, chosen by `wake`:
+    - ``wake=True``: a Zenoh callback decodes each sample on Zenoh's thread, queues it and wakes
+      the node's `wait()` (for the few keys a loop must react to at once: stops, releases).
+    - ``wake=False``: samples wait in a Zenoh ring channel (bounded, oldest dropped, no Python
+      and no GIL on Zenoh's thread) and are decoded by the reader when it calls `latest()`,
+      `drain()`, `age_s()` or `stats`. For streams a loop reads at its own tick this removes a
+      GIL hand-over per message; the receive time (`rx_monotonic`) is then the time the reader
+      took the sample in, at most one of its ticks after arrival.
     """
 
     def __init__(self, node: ServiceNode, topic: Topic, queue_size: int, wake: bool = True) -> None:
         self.topic = topic
         self.wake = wake
         self.key = topic.key(node.profile.prefix)
-        self.stats = SubscriptionStats()
+        self._stats = SubscriptionStats()
         self._node = node
         self._queue: deque[Received[M]] = deque(maxlen=queue_size)
         self._latest: Received[M] | None = None
         self._last_seq: dict[str, int] = {}
         self._bad_log = RateLimitedLog(log, 1.0)
-        self._subscriber = node.session.declare_subscriber(self.key, self._on_sample)
+        self._pump_lock = threading.Lock()
+        if wake:
+            self._subscriber = node.session.declare_subscriber(self.key, self._on_sample)
+        else:
+            self._subscriber = node.session.declare_subscriber(self.key, zenoh.handlers.RingChannel(queue_size))
 
     # Runs on a Zenoh thread: decode, count, enqueue, notify. Nothing else.
     def _on_sample(self, sample: zenoh.Sample) -> None:
-        rx = time.monotonic()
-        self.stats.received += 1
+        if self._accept(sample, time.monotonic()):
+            self._node._notify()
+
+    def _pump(self) -> None:
+        """Take in what waits in the ring channel (``wake=False`` only; reader's thread)."""
+        if self.wake:
+            return
+        with self._pump_lock:
+            try_recv = self._subscriber.try_recv
+            while True:
+                try:
+                    sample = try_recv()
+                except Exception:  # the session closed under us
+                    return
+                if sample is None:
+                    return
+                self._accept(sample, time.monotonic())
+
+    def _accept(self, sample: zenoh.Sample, rx: float) -> bool:
+        """Decode, count and queue one sample; False when it was dropped."""
+        stats = self._stats
+        stats.received += 1
         try:
-            payload = sample.payload.to_bytes()
-            msg = decode(self.topic, payload)
+            size = len(sample.payload)
+            if size > MAX_PAYLOAD_BYTES:  # refused before it is copied out of Zenoh
+                raise DecodeError(f"payload of {size} bytes exceeds the {MAX_PAYLOAD_BYTES}-byte cap")
+            msg = decode(self.topic, sample.payload.to_bytes())
         except DecodeError as exc:
-            self.stats.rejected += 1
+            stats.rejected += 1
             self._bad_log.warning(
                 self.key,
                 f"dropped undecodable payload on {self.key}: {exc}",
-                rejected=self.stats.rejected,
+                rejected=stats.rejected,
             )
-            return
+            return False
         except Exception as exc:  # never let anything escape into Zenoh's thread
-            self.stats.rejected += 1
+            stats.rejected += 1
             self._bad_log.warning(self.key, f"dropped payload on {self.key}: {exc!r}")
-            return
+            return False
         last = self._last_seq.get(msg.source)
         if last is not None and msg.seq > last + 1:
-            self.stats.seq_gaps += msg.seq - last - 1
+            stats.seq_gaps += msg.seq - last - 1
         self._last_seq[msg.source] = msg.seq
-        self.stats.accepted += 1
+        stats.accepted += 1
         item = Received(msg, rx)
         if len(self._queue) == self._queue.maxlen:
-            self.stats.overflowed += 1
+            stats.overflowed += 1
         self._queue.append(item)
         self._latest = item
-        if self.wake:
-            self._node._notify()
+        return True
+
+    @property
+    def stats(self) -> SubscriptionStats:
+        """Counters of this subscription (takes waiting samples in first)."""
+        self._pump()
+        return self._stats
 
     def latest(self) -> Received[M] | None:
         """The most recent message received so far (None before the first)."""
+        self._pump()
         return self._latest
 
     def drain(self) -> list[Received[M]]:
         """All messages received since the last drain, oldest first."""
+        self._pump()
         out = []
         queue = self._queue
         while queue:
@@ -140,6 +182,7 @@ class TypedSubscription(Generic[M]):
 
     def age_s(self, now_monotonic: float | None = None) -> float:
         """Seconds since the last accepted message (inf before the first)."""
+        self._pump()
         if self._latest is None:
             return float("inf")
         now = time.monotonic() if now_monotonic is None else now_monotonic
@@ -392,30 +435,48 @@ class ServiceNode:
             self._wake.notify_all()
 
     def _beat_forever(self) -> None:
-        period_s = HEARTBEAT_PERIOD_S / 2
+        """Send a heartbeat every `HEARTBEAT_PERIOD_S` on a fixed grid (one wake per beat) and
+        say why when a wake came late (the `/proc` figures are read at every wake, parsed only
+        for a late one)."""
+        period_s = HEARTBEAT_PERIOD_S
         late_log = RateLimitedLog(log, 5.0)
         with WakeSampler() as sampler:  # opened here: it samples this thread
-            previous = sampler.sample()
-            while not self.stop_event.wait(period_s):
-                now = sampler.sample()
-                self.heartbeat()
-                report = late_wake_report(previous, now, period_s)
-                if report is not None:  # says whether the process lacked CPU or the GIL
-                    warn = late_s(previous, now, period_s) >= LATE_WAKE_WARNING_S
-                    late_log.log(logging.WARNING if warn else logging.INFO, "late heartbeat",
-                                 f"{self.name}: {report}")
+            previous = sampler.raw()
+            next_s = previous.monotonic_s + period_s
+            while not self.stop_event.wait(max(0.0, next_s - time.monotonic())):
+                now = sampler.raw()
+                self._beat()
+                lateness_s = now.monotonic_s - previous.monotonic_s - period_s
+                if lateness_s > LATE_WAKE_REPORT_S:  # says whether the process lacked CPU or the GIL
+                    report = late_wake_report(previous.parsed(), now.parsed(), period_s)
+                    if report is not None:
+                        level = logging.WARNING if lateness_s >= LATE_WAKE_WARNING_S else logging.INFO
+                        late_log.log(level, "late heartbeat", f"{self.name}: {report}")
+                next_s += period_s
+                if next_s < now.monotonic_s:  # late: restart the grid from now, no burst
+                    next_s = now.monotonic_s + period_s
                 previous = now
 
     def heartbeat(self) -> None:
-        """Send the heartbeat if it is due (cheap to call often; any thread)."""
+        """Send the heartbeat now if the last one is at least a period old (any thread; the
+        heartbeat thread sends them anyway, so a loop need not call this)."""
         now = time.monotonic()
         with self._beat_lock:
             if self._heartbeat_pub is None or now < self._next_beat_s:
                 return
+        self._beat()
+
+    def _beat(self) -> None:
+        """Send one heartbeat (the heartbeat thread's grid, and `heartbeat()`)."""
+        now = time.monotonic()
+        with self._beat_lock:
+            if self._heartbeat_pub is None:
+                return
             self._next_beat_s = now + HEARTBEAT_PERIOD_S
-        try:
-            self._heartbeat_pub.put(uptime_s=min(now - self._opened_s, 86400.0), beats=self._beats)
+            beats = self._beats
             self._beats += 1
+        try:
+            self._heartbeat_pub.put(uptime_s=min(now - self._opened_s, 86400.0), beats=beats)
         except Exception as exc:  # closing session: the heartbeat must never kill a service
             log.debug("heartbeat not sent: %s", exc)
 

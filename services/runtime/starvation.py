@@ -85,6 +85,25 @@ def parse_steal(first_line: str, ticks_per_s: float = _CLOCK_TICKS_PER_S, cpus: 
     return int(fields[8]) / ticks_per_s / max(1, cpus)
 
 
+@dataclass(frozen=True)
+class RawWake:
+    """A `WakeSample` before parsing: `monotonic_s`, the process's CPU time (s) and the raw
+    text of ``/proc/thread-self/schedstat``, ``/proc/stat`` (its start) and the main thread's
+    ``schedstat`` (None where a file could not be read)."""
+
+    monotonic_s: float
+    schedstat: str | None
+    process_cpu_s: float
+    stat: str | None
+    main_schedstat: str | None
+
+    def parsed(self) -> WakeSample:
+        return WakeSample(self.monotonic_s, None if self.schedstat is None else parse_schedstat(self.schedstat),
+                          self.process_cpu_s,
+                          None if self.stat is None else parse_steal(self.stat.split("\n", 1)[0]),
+                          None if self.main_schedstat is None else parse_schedstat(self.main_schedstat))
+
+
 class WakeSampler:
     """Takes `WakeSample`s of the thread that made it, cheaply enough for every heartbeat wake.
 
@@ -119,13 +138,16 @@ class WakeSampler:
 
     def sample(self) -> WakeSample:
         """This thread's `WakeSample` now."""
+        return self.raw().parsed()
+
+    def raw(self) -> RawWake:
+        """This thread's figures now, unparsed: the reads only (a heartbeat thread takes one
+        at every wake and parses two only when the wake was late)."""
         schedstat = self._read(self._schedstat_fd, 128)
         stat = self._read(self._stat_fd, 512)
         main = self._read(self._main_schedstat_fd, 128)
         t = os.times()
-        return WakeSample(time.monotonic(), None if schedstat is None else parse_schedstat(schedstat),
-                          t.user + t.system, None if stat is None else parse_steal(stat.split("\n", 1)[0]),
-                          None if main is None else parse_schedstat(main))
+        return RawWake(time.monotonic(), schedstat, t.user + t.system, stat, main)
 
     def close(self) -> None:
         fds = (self._schedstat_fd, self._stat_fd, self._main_schedstat_fd)
