@@ -27,9 +27,9 @@ from robot_sim.kinect.robot_geometry import ArmGeometry
 from robot_sim.kinect.shapes import Capsule
 from services.tracker.body import BodyDimensionEstimator, BodyDimensions
 from services.tracker.config import TrackerConfig
-from services.tracker.corrections import ProximityFilter, lag_correct, points_in_box, robot_point_mask
+from services.tracker.corrections import ProximityFilter, lag_correct, robot_point_mask
 from services.tracker.objects import ObjectDetection, detect_object
-from services.tracker.pointcloud import DepthFrame, backproject
+from services.tracker.pointcloud import DepthFrame, box_points
 
 HAND_JOINT = "right_hand"
 #: Skeleton joints around which depth points belong to the person (for object detection).
@@ -103,7 +103,6 @@ class TrackerPipeline:
         )
         self._skeleton: SkeletonFrame | None = None
         self._depth: DepthFrame | None = None
-        self._cloud: tuple[np.ndarray, np.ndarray] | None = None
         self._depth_count = 0
         self._object_due = False
         self._q: np.ndarray | None = None
@@ -120,15 +119,16 @@ class TrackerPipeline:
     # ------------------------------------------------------------------ inputs
     def on_joint_state(self, q_rad: np.ndarray, t_s: float) -> None:
         """Latest right-arm joints (7,), rad, received at `t_s`."""
-        self._q = np.asarray(q_rad, float)
+        q = np.asarray(q_rad, float)
+        if self._q is None or not np.array_equal(q, self._q):  # a still arm keeps its capsules
+            self._robot_caps = None
+            self._tool = None
+        self._q = q
         self._q_t = t_s
-        self._robot_caps = None
-        self._tool = None
 
     def on_depth(self, frame: DepthFrame) -> None:
         """Latest depth frame."""
         self._depth = frame
-        self._cloud = None
         self._depth_count += 1
         if (self._depth_count - 1) % self.config.object_every_n_depth_frames == 0:
             self._object_due = True
@@ -151,21 +151,11 @@ class TrackerPipeline:
             self._robot_caps = caps
         return self._robot_caps, self._tool
 
-    def cloud(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """Back-projected points (H, W, 3) and validity (H, W) of the latest depth frame."""
-        if self._depth is None:
-            return None
-        if self._cloud is None:
-            self._cloud = backproject(self._depth)
-        return self._cloud
-
     def _human_points_near(self, centre_m: np.ndarray, half_m: float, now_s: float) -> np.ndarray:
-        """Cloud points (N, 3) in the cube around `centre_m`, robot and table removed."""
-        cloud = self.cloud()
-        assert cloud is not None
-        points, valid = cloud
-        flat = points[valid]
-        pts = flat[points_in_box(flat, centre_m, half_m)].astype(float)
+        """Points (N, 3) of the latest depth frame in the cube around `centre_m`, robot
+        removed: only the image window the cube projects into is back-projected."""
+        assert self._depth is not None
+        pts = box_points(self._depth, centre_m, half_m).astype(float)
         if len(pts) == 0:
             return pts
         caps, _ = self._robot(now_s)
@@ -267,10 +257,9 @@ class TrackerPipeline:
         if self._depth is None or not (self._object_due or force):
             return None
         self._object_due = False
-        points, valid = self.cloud()
         cfg = self.config
         return detect_object(
-            points, valid, cfg.floor_z_m, None, self._excluded_points, cfg.object_min_height_m, cfg.object_max_height_m,
+            self._depth, cfg.floor_z_m, self._excluded_points, cfg.object_min_height_m, cfg.object_max_height_m,
             cfg.object_min_pixels,
         )
 

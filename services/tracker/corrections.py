@@ -93,13 +93,16 @@ def robot_point_mask(points_m: np.ndarray, capsules: list[Capsule], margin_m: fl
     mask = np.zeros(len(points), dtype=bool)
     if len(points) == 0:
         return mask
+    points_lo, points_hi = points.min(axis=0), points.max(axis=0)
     for cap in capsules:
         a = np.asarray(cap.a_m, float)
         ba = np.asarray(cap.b_m, float) - a
         reach = cap.radius_m + margin_m
-        # Cheap bounding-box rejection before the exact distance.
+        # Cheap bounding-box rejection before the exact distance: whole capsules first.
         lo = np.minimum(a, a + ba) - reach
         hi = np.maximum(a, a + ba) + reach
+        if np.any(lo > points_hi) or np.any(hi < points_lo):
+            continue
         cand = np.flatnonzero(~mask & np.all((points >= lo) & (points <= hi), axis=1))
         if len(cand) == 0:
             continue

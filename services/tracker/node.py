@@ -72,12 +72,14 @@ class _Feeder:
         self.warnings = RateLimitedLog(log, 5.0)
         self.human: list[HumanEstimate] = []
 
-    def joint_state(self, msg, t_s: float) -> None:
+    def joint_state(self, msg, t_s: float) -> bool:
+        """Feed a joint state; False (and a warning) when it lacks the right-arm joints."""
         index = {n: i for i, n in enumerate(msg.names)}
         if any(n not in index for n in RIGHT_ARM_JOINTS) or len(msg.position_rad) != len(msg.names):
             self.warnings.warning("joint_state", "joint_state without the right-arm joints: ignored")
-            return
+            return False
         self.pipe.on_joint_state(np.array([msg.position_rad[index[n]] for n in RIGHT_ARM_JOINTS]), t_s)
+        return True
 
     def depth(self, msg, t_s: float) -> None:
         try:
@@ -102,7 +104,14 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
         pending: ReplayItem | None = None
         start = time.monotonic()
         if replay_path is None:
-            subs = (node.subscribe(T.JOINT_STATE), node.subscribe(T.DEPTH, queue_size=4), node.subscribe(T.SKELETON))
+            # All three are read at the loop's own tick (a `RateLoop`, which never waits on
+            # them): no message wakes the loop. Only the newest depth image (and joint state)
+            # of a tick goes into the pipeline, which keeps only the newest anyway.
+            subs = (
+                node.subscribe(T.JOINT_STATE, wake=False),
+                node.subscribe(T.DEPTH, queue_size=4, wake=False),
+                node.subscribe(T.SKELETON, wake=False),
+            )
         else:
             replay_iter = iter(read_replay(replay_path))
             log.info("replaying %s", replay_path)
@@ -112,8 +121,9 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
             now = time.monotonic()
             if subs is not None:
                 js_sub, depth_sub, skel_sub = subs
-                for rx in js_sub.drain():
-                    feeder.joint_state(rx.msg, rx.rx_monotonic)
+                for rx in reversed(js_sub.drain()):  # the newest usable one
+                    if feeder.joint_state(rx.msg, rx.rx_monotonic):
+                        break
                 depths = depth_sub.drain()
                 if depths:
                     feeder.depth(depths[-1].msg, depths[-1].rx_monotonic)
