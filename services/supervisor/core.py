@@ -81,19 +81,33 @@ class TargetFilter:
     def __init__(self, window_s: float = 1.0) -> None:
         self.window_s = window_s
         self._items: list[tuple[float, TransferTarget]] = []
+        self._current: TransferTarget | None = None  # of the window as it is now
+        self._stale = True
 
     def offer(self, target: TransferTarget, rx_s: float) -> None:
         self._items.append((rx_s, target))
+        self._stale = True
 
     def current(self, now_s: float) -> TransferTarget | None:
         """The latest target with its position replaced by the window's median (None when
-        nothing was received within the window)."""
-        self._items = [(t, m) for t, m in self._items if now_s - t <= self.window_s]
-        if not self._items:
+        nothing was received within the window). Computed again only when the window's
+        contents changed (the supervisor asks at 100 Hz; targets come at about 5 Hz)."""
+        items = self._items
+        first = 0
+        while first < len(items) and now_s - items[first][0] > self.window_s:
+            first += 1
+        if first:
+            del items[:first]
+            self._stale = True
+        if not items:
+            self._current = None
             return None
-        latest = self._items[-1][1]
-        median = np.median(np.array([m.position_base_m for _, m in self._items]), axis=0)
-        return msgspec.structs.replace(latest, position_base_m=tuple(float(v) for v in median))
+        if self._stale:
+            latest = items[-1][1]
+            median = np.median(np.array([m.position_base_m for _, m in items]), axis=0)
+            self._current = msgspec.structs.replace(latest, position_base_m=tuple(float(v) for v in median))
+            self._stale = False
+        return self._current
 
 
 @dataclass

@@ -272,6 +272,19 @@ def test_target_filter_takes_the_median_over_its_window():
     assert f.current(12.0) is None  # all older than the window
 
 
+def test_target_filter_follows_new_targets_and_the_window_sliding_past_old_ones():
+    f = TargetFilter(window_s=1.0)
+    target = lambda x: TransferTarget(**H, position_task_m=(0.0, 0.0), position_base_m=(x, -0.26, 0.3))  # noqa: E731
+    f.offer(target(0.40), 10.0)
+    f.offer(target(0.50), 10.5)
+    assert f.current(10.6).position_base_m[0] == pytest.approx(0.45)
+    assert f.current(10.7).position_base_m[0] == pytest.approx(0.45)  # same window, same answer
+    f.offer(target(0.60), 10.8)
+    assert f.current(10.9).position_base_m[0] == pytest.approx(0.50)  # a new target counts at once
+    assert f.current(11.2).position_base_m[0] == pytest.approx(0.55)  # 0.40 (t=10.0) left the window
+    assert f.current(11.7).position_base_m[0] == pytest.approx(0.60)
+
+
 def test_config_rejects_bad_values_with_the_key_named():
     with pytest.raises(SupervisorConfigError, match="episodes"):
         parse_config({"episodes": -1})
