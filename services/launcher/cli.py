@@ -7,7 +7,9 @@ import time
 from pathlib import Path
 
 from services.launcher.node import JOBS, LaunchOptions, Launcher, LauncherError
+from services.launcher.processes import DEFAULT_OUTPUT_QUEUE_LINES, stdout_outlet
 from services.runtime import base_parser, load_profile_file, run_main
+from services.runtime.errors import ProfileError
 from services.runtime.profile import free_tcp_port
 
 
@@ -25,7 +27,6 @@ def _prefix_own_logs() -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    _prefix_own_logs()
     profile = load_profile_file(args.profile)
     endpoint = args.endpoint
     if args.port is not None:
@@ -55,6 +56,12 @@ def _run(args: argparse.Namespace) -> int:
         raise LauncherError("--seed must be within 0–4294967295")
     if not 0 < options.alive_timeout_s <= 600:
         raise LauncherError("--alive-timeout-s must be within (0, 600] s")
+    queue_lines = cfg.get("output_queue_lines", DEFAULT_OUTPUT_QUEUE_LINES)
+    if isinstance(queue_lines, bool) or not isinstance(queue_lines, int) or not 1 <= queue_lines <= 1_000_000:
+        raise ProfileError(f"{profile.path}: launcher.output_queue_lines {queue_lines!r} must be an "
+                           "integer within 1–1000000")
+    stdout_outlet(queue_lines)  # before the first line, so the bound holds from the start
+    _prefix_own_logs()
     return Launcher(profile, options).run()
 
 

@@ -104,9 +104,10 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
                      say: Callable[[str], None], episode_timeout_s: float = 90.0) -> JobResult:
     """Follow `episodes` episodes (0: until aborted); print progress with `say`."""
     watch = EpisodeWatch()
-    states = node.subscribe(topics.SUPERVISOR_STATE, queue_size=256)
+    # Read at this loop's 20 Hz tick; only a summary wakes it early.
+    states = node.subscribe(topics.SUPERVISOR_STATE, queue_size=256, wake=False)
     summaries = node.subscribe(topics.EPISODE, queue_size=64)
-    truth = node.subscribe(topics.SIM_TRUTH, queue_size=1024)
+    truth = node.subscribe(topics.SIM_TRUTH, queue_size=1024, wake=False)
     stop_pub = node.publisher(topics.MOTION_STOP)
     last_progress = time.monotonic()
     last_state_s: float | None = None

@@ -9,6 +9,11 @@
    Ctrl-C) while a monitor thread watches the children and their liveliness.
 5. Shut down in order: SIGINT, SIGTERM after `term_timeout_s`, SIGKILL after as long again.
 
+Output (the children's, prefixed, and the launcher's own) never blocks the launcher: it waits
+in a bounded queue for stdout (``[launcher] output_queue_lines`` of the profile, default 8192);
+when stdout is blocked the oldest lines are dropped and their count is printed once it takes
+output again (`services.launcher.processes`).
+
 Exit codes: 0 job succeeded; 1 a service failed or the job failed; 2 bad input (profile,
 arguments, port in use); 130 interrupted by Ctrl-C/SIGTERM.
 """
@@ -237,7 +242,7 @@ class Launcher:
         t0 = time.monotonic()
         precompile_stack()
         router_profile = replace(self.profile, zenoh_overrides=router_zenoh_overrides(self.profile.zenoh_overrides))
-        router = RouterProcess(json.dumps(zenoh_config_dict(router_profile, "router")))
+        router = RouterProcess(json.dumps(zenoh_config_dict(router_profile, "router")), self.width)
         try:
             router.start()
             session = open_session(self.profile, "client", timeout_s=5.0, user="launcher")

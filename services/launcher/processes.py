@@ -29,16 +29,26 @@ from services.launcher.core import prefix_line
 from services.runtime.outlet import LineOutlet
 
 _PR_SET_PDEATHSIG = 1
+#: Lines that may wait for a blocked stdout before the oldest are dropped (profile key
+#: ``[launcher] output_queue_lines``); a whole handover run prints about a hundred.
+DEFAULT_OUTPUT_QUEUE_LINES = 8192
 _outlet: LineOutlet | None = None
 _outlet_lock = threading.Lock()
 
 
-def stdout_outlet() -> LineOutlet:
-    """The launcher's non-blocking stdout (made on first use)."""
+def stdout_outlet(max_lines: int = DEFAULT_OUTPUT_QUEUE_LINES) -> LineOutlet:
+    """The launcher's non-blocking stdout, made on first use with room for `max_lines` waiting
+    lines (`max_lines` of a later call is ignored: call it first where the bound matters).
+
+    Once made it is returned without taking a lock: the launcher's signal handler says what it
+    does, and a handler that waited for a lock its own thread held would hang the launcher."""
     global _outlet
+    outlet = _outlet
+    if outlet is not None:
+        return outlet
     with _outlet_lock:
         if _outlet is None:
-            _outlet = LineOutlet(sys.stdout.fileno(), max_lines=8192, name="stdout",
+            _outlet = LineOutlet(sys.stdout.fileno(), max_lines=max_lines, name="stdout",
                                  drop_notice="[launcher] {n} output line(s) dropped while stdout was "
                                              "blocked ({total} in all)\n")
         return _outlet
@@ -148,11 +158,21 @@ class Child:
 
 
 class RouterProcess:
-    """The stack's Zenoh router in its own process (`services.launcher.router`)."""
+    """The stack's Zenoh router in its own process (`services.launcher.router`).
 
-    def __init__(self, config_json: str) -> None:
+    Its stdout and stderr are one pipe, read by a thread for as long as the router runs: the
+    ``ready`` line, then anything it says (relayed ``[router]``-prefixed, never blocking), so
+    the router (the bus itself) never waits on a full pipe.
+    """
+
+    def __init__(self, config_json: str, name_width: int = len("router")) -> None:
         self.config_json = config_json
+        self.name_width = name_width
         self.proc: subprocess.Popen[bytes] | None = None
+        self._answered = threading.Event()  # the ready line came, or the output ended
+        self._ready = False
+        self._said: list[str] = []  # lines before the ready line (the reason it did not start)
+        self._reader: threading.Thread | None = None
 
     def start(self, timeout_s: float = 10.0) -> None:
         """Start the router and wait until it listens.
@@ -160,21 +180,40 @@ class RouterProcess:
         Raises:
             RuntimeError: it did not come up; the message is the router's own reason.
         """
-        import select
-
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "services.launcher.router"], stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, preexec_fn=_child_setup,
+            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, preexec_fn=_child_setup,
         )
-        assert self.proc.stdin is not None and self.proc.stdout is not None
+        assert self.proc.stdin is not None
+        self._reader = threading.Thread(target=self._read, name="out-router", daemon=True)
+        self._reader.start()
         self.proc.stdin.write(self.config_json.encode())
         self.proc.stdin.close()
-        ready, _, _ = select.select([self.proc.stdout], [], [], timeout_s)
-        line = self.proc.stdout.readline().decode(errors="replace") if ready else ""
-        if not line.startswith("ready"):
+        if not self._answered.wait(timeout_s) or not self._ready:
             self.stop(1.0)
-            err = self.proc.stderr.read().decode(errors="replace").strip() if self.proc.stderr else ""
-            raise RuntimeError(err.splitlines()[-1] if err else f"the router did not answer within {timeout_s:.0f} s")
+            self._reader.join(1.0)
+            raise RuntimeError(self._reason() or f"the router did not answer within {timeout_s:.0f} s")
+
+    def _reason(self) -> str:
+        """The router's own error (its last ``router: …`` message, which may span lines)."""
+        said = [line for line in self._said if line]
+        starts = [i for i, line in enumerate(said) if line.startswith("router: ")]
+        return " ".join(said[starts[-1]:]) if starts else (said[-1] if said else "")
+
+    def _read(self) -> None:
+        from services.launcher.router import READY
+
+        assert self.proc is not None and self.proc.stdout is not None
+        for raw in iter(self.proc.stdout.readline, b""):
+            line = raw.decode(errors="replace")
+            if self._ready:
+                emit(prefix_line("router", line, self.name_width))
+            elif line.startswith(READY):
+                self._ready = True
+                self._answered.set()
+            else:
+                self._said.append(line.strip())
+        self._answered.set()
 
     @property
     def pid(self) -> int | None:

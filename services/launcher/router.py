@@ -7,7 +7,8 @@ and its job cannot delay a message between two services, and the router needs no
 Protocol with the launcher: the Zenoh config (JSON, from
 `services.runtime.profile.zenoh_config_dict(profile, "router")`) arrives on stdin; once the
 router listens it writes ``ready <endpoint>`` on stdout; on a config or listen error it writes
-one line to stderr and exits 1. It runs until SIGINT or SIGTERM (or until its parent dies:
+one message starting ``router:`` to stderr and exits 1. The launcher reads stdout and stderr
+as one pipe for as long as the router runs, so a write of the router never blocks. It runs until SIGINT or SIGTERM (or until its parent dies:
 the launcher sets `PR_SET_PDEATHSIG`).
 """
 

@@ -5,7 +5,8 @@ reads, a terminal paused with Ctrl-S). `LineOutlet.put(line)` only appends to a 
 one daemon thread writes the queue to a file descriptor with `os.write` (no Python buffer object,
 so no lock a caller could wait on). When the queue is full the oldest waiting line is dropped and
 counted, never waited for; once the descriptor takes output again the writer says how many lines
-were dropped, then writes the newest ones.
+were dropped, then writes the newest ones. A descriptor that its opener made non-blocking is
+waited for in the writer thread like a blocking one (a full pipe is not a broken one).
 
 The services' logging (`services.runtime.logs`) and the launcher's relay of its children's
 output (`services.launcher.processes`) both write through one.
@@ -14,6 +15,7 @@ output (`services.launcher.processes`) both write through one.
 from __future__ import annotations
 
 import os
+import select
 import threading
 import time
 from collections import deque
@@ -22,6 +24,16 @@ from collections import deque
 DEFAULT_MAX_LINES = 4096
 #: Most bytes the writer joins into one `os.write`.
 _BATCH_BYTES = 64 * 1024
+#: Longest single wait of the writer for a full non-blocking descriptor, s (then it retries).
+_WRITABLE_WAIT_S = 1.0
+
+
+def _wait_writable(fd: int) -> None:
+    """Wait (in the writer thread) until `fd` takes output, fails or `_WRITABLE_WAIT_S` passes;
+    the next write then says which."""
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    poller.poll(_WRITABLE_WAIT_S * 1000)
 
 
 class LineOutlet:
@@ -120,6 +132,9 @@ class LineOutlet:
             try:
                 n = os.write(self.fd, view)
             except InterruptedError:
+                continue
+            except BlockingIOError:  # a non-blocking descriptor (O_NONBLOCK set by whoever opened it) is full
+                _wait_writable(self.fd)
                 continue
             except OSError:  # closed pipe, bad descriptor: drop from now on, never raise
                 with self._cond:
