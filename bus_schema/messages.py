@@ -532,10 +532,14 @@ class Heartbeat(Message, frozen=True, kw_only=True):
     Attributes:
         uptime_s: seconds since the service connected.
         beats: heartbeats sent so far.
+        pid: the sender's process id (0: not given). On one host the supervisor reads that
+            process's scheduler figures to tell a starved process from a frozen one; it only
+            ever delays a "silent" verdict, bounded (`services.runtime.sched`).
     """
 
     uptime_s: DurationS = 0.0
     beats: U63 = 0
+    pid: Annotated[int, Meta(ge=0, le=4_194_304)] = 0
 
 
 # --------------------------------------------------------------------------- simulation

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from bus_schema import topics
 from bus_schema.messages import EpisodeSummary, SimTruth, SupervisorState
 from services.runtime import ServiceNode
+from services.runtime.sched import MAX_EXCUSED_S, StarvationJudge
 
 SAFE_OUTCOMES = ("released", "timeout", "aborted")
 #: The supervisor publishes its state at ≥ 20 Hz; older than this, it is frozen or hung
@@ -29,6 +30,8 @@ SUPERVISOR_SILENT_S = 0.25
 #: A loop iteration this much after the previous one (it waits at most 50 ms) means the
 #: launcher itself was starved: states may still wait in its socket.
 SELF_STALL_S = 0.1
+#: A supervisor quiet this long is read from /proc at each loop (to judge starvation), s.
+NOTE_AFTER_S = 0.08
 
 
 @dataclass
@@ -101,8 +104,16 @@ class JobResult:
 
 
 def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[], str | None],
-                     say: Callable[[str], None], episode_timeout_s: float = 90.0) -> JobResult:
-    """Follow `episodes` episodes (0: until aborted); print progress with `say`."""
+                     say: Callable[[str], None], episode_timeout_s: float = 90.0,
+                     supervisor_pid: Callable[[], int | None] | None = None) -> JobResult:
+    """Follow `episodes` episodes (0: until aborted); print progress with `say`.
+
+    `supervisor_pid` (one host): the supervisor's process id, so that a supervisor starved of
+    CPU (its threads waiting on the run queue) is not called silent before
+    `services.runtime.sched.MAX_EXCUSED_S`; a stopped or hung one still is at
+    `SUPERVISOR_SILENT_S`."""
+    judge = StarvationJudge() if supervisor_pid is not None else None
+    excused_log_s = -math.inf
     watch = EpisodeWatch()
     # Read at this loop's 20 Hz tick; only a summary wakes it early.
     states = node.subscribe(topics.SUPERVISOR_STATE, queue_size=256, wake=False)
@@ -156,7 +167,16 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
             time.sleep(0.01)
             take_states()
             silent_s = time.monotonic() - last_state_s if last_state_s is not None else 0.0
+        pid = supervisor_pid() if judge is not None and silent_s > NOTE_AFTER_S else None
+        if pid is not None:
+            judge.note(pid, time.monotonic())
         if silent_s > SUPERVISOR_SILENT_S:
-            return stopped(f"supervisor: silent: no supervisor/state for {silent_s:.3f} s; the launcher stopped the arm")
+            why = judge.excuse(pid, time.monotonic()) if pid is not None and silent_s <= MAX_EXCUSED_S else None
+            if why is None:
+                return stopped(f"supervisor: silent: no supervisor/state for {silent_s:.3f} s; "
+                               "the launcher stopped the arm")
+            if time.monotonic() - excused_log_s > 5.0:
+                excused_log_s = time.monotonic()
+                say(f"supervisor: no supervisor/state for {silent_s:.3f} s, excused: starved of CPU ({why})")
         if not math.isinf(episode_timeout_s) and time.monotonic() - last_progress > episode_timeout_s:
             return JobResult(False, f"no progress from the supervisor for {episode_timeout_s:.0f} s", watch.reports)

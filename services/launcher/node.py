@@ -313,6 +313,10 @@ class Launcher:
             return self.options.episodes
         return int(self.profile.service_config("supervisor").get("episodes", 1))
 
+    def _supervisor_pid(self) -> int | None:
+        child = self.children.get("supervisor")
+        return None if child is None else child.pid
+
     def _run_handover(self) -> int:
         from services.launcher.handover_job import run_handover_job
 
@@ -326,7 +330,8 @@ class Launcher:
                                        daemon=True)
             stopper.start()
             say(f"job: handover ({episodes or 'unlimited'} episode{'s' if episodes != 1 else ''})")
-            result = run_handover_job(node, episodes, self._abort_reason, say, self.options.episode_timeout_s)
+            result = run_handover_job(node, episodes, self._abort_reason, say, self.options.episode_timeout_s,
+                                      None if self.profile.allow_non_loopback else self._supervisor_pid)
         self.episode_running = False
         if self.interrupted:
             return EXIT_INTERRUPTED

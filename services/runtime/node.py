@@ -14,6 +14,7 @@ Freshness is judged by local receive time (`time.monotonic()`), never by the sen
 from __future__ import annotations
 
 import logging
+import os
 import signal
 import threading
 import time
@@ -476,7 +477,7 @@ class ServiceNode:
             beats = self._beats
             self._beats += 1
         try:
-            self._heartbeat_pub.put(uptime_s=min(now - self._opened_s, 86400.0), beats=beats)
+            self._heartbeat_pub.put(uptime_s=min(now - self._opened_s, 86400.0), beats=beats, pid=os.getpid())
         except Exception as exc:  # closing session: the heartbeat must never kill a service
             log.debug("heartbeat not sent: %s", exc)
 

@@ -16,6 +16,7 @@ from bus_schema import topics
 from robot_sim.baxter import RIGHT_ARM_HOME_RAD
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.runtime.liveliness import LivelinessWatcher
+from services.runtime.sched import MAX_EXCUSED_S, ServiceStarvation
 from services.supervisor.config import SupervisorConfig
 from services.supervisor.core import Actions, Sequencer, Snapshot, TargetFilter
 from services.supervisor.watchdog import Watchdog
@@ -51,10 +52,14 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
     """Run the supervisor until SIGINT/SIGTERM (or, with a finite episode count, until the
     last episode ended and the launcher stops it). Returns the exit code."""
     services = watched_services(profile)
+    # One host (no other machine on the bus): a silence can be told apart as starvation.
+    starvation = None if profile.allow_non_loopback else ServiceStarvation()
     watchdog = Watchdog(services, config.heartbeat_timeout_s, config.stream_timeout_s,
                         {s: o for s, o in WATCHED_STREAMS.items() if o in services},
                         {name: config.report_heartbeat_timeout_s for name in services
-                         if config.watch.get(name) == "report"})
+                         if config.watch.get(name) == "report"},
+                        excuser=starvation, max_excused_s=MAX_EXCUSED_S)
+    excuse_log = RateLimitedLog(log, 5.0)
     sequencer = Sequencer(config, RIGHT_ARM_HOME_RAD)
     liveliness_events: queue.SimpleQueue[tuple[str, bool, float]] = queue.SimpleQueue()
     with ServiceNode(SERVICE_NAME, profile) as node:
@@ -117,6 +122,8 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                 watchdog.liveliness(name, alive, at_s)
             for rx in heartbeats.drain():
                 watchdog.heartbeat(rx.msg.source, rx.rx_monotonic)
+                if starvation is not None:
+                    starvation.heard(rx.msg.source, rx.msg.pid)
             for name, sub in subs.items():
                 for rx in sub.drain():
                     setattr(snap, name, rx.msg)
@@ -154,7 +161,10 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                     stall_log.warning("stall", f"supervisor loop was {stalled_s * 1e3:.0f} ms late "
                                                "(starved of CPU?); no service looked silent",
                                       late_ms=round(stalled_s * 1e3))
-                for fault in watchdog.check(now):
+                faults = watchdog.check(now)
+                for service, why in watchdog.excused:
+                    excuse_log.info(service, f"{service}: {why}")
+                for fault in faults:
                     critical = config.watch.get(fault.service, "critical") == "critical"
                     log.warning("service fault", extra=kv(service=fault.service, what=fault.what,
                                                           detail=fault.detail, critical=critical,

@@ -11,11 +11,28 @@ Freshness is judged on the local monotonic clock at receive time, never on the s
 stamps. A service is only judged once it has been seen (alive, beating, publishing): a
 service still starting is not a fault. Each fault is reported once, and again only after the
 service has recovered.
+
+On one host a silence can be excused as starvation (`excuser`, see
+`services.runtime.sched`): a process whose threads spent the silence waiting on the kernel's
+run queue is alive and runnable, only not given a CPU (a busy machine). It is judged silent
+once its silence passes `max_excused_s` whatever the reason; a stopped (SIGSTOP), blocked or
+spinning process is never excused.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
+
+
+class Excuser(Protocol):
+    """Says whether a quiet service is starved of CPU (see `services.runtime.sched`)."""
+
+    def note(self, service: str, now_s: float) -> None:
+        """The service has been quiet for a while: take readings to judge it later."""
+
+    def excuse(self, service: str, now_s: float) -> str | None:
+        """Why its silence is starvation (one clause), or None."""
 
 
 @dataclass(frozen=True)
@@ -60,11 +77,19 @@ class Watchdog:
         streams: data stream (topic suffix) → owning service, for the streams to watch.
         heartbeat_timeouts_s: per-service heartbeat age overriding `heartbeat_timeout_s`
             (report-only services, e.g. the recorder, which may stall in long writes), s.
+        excuser: judges a silence as starvation (None: never excused).
+        max_excused_s: a silence this long is a fault even when excused, s.
+        note_after_s: a service quiet this long is noted to the excuser at each check, s.
     """
 
     def __init__(self, services: list[str], heartbeat_timeout_s: float = 0.25, stream_timeout_s: float = 0.2,
                  streams: dict[str, str] | None = None,
-                 heartbeat_timeouts_s: dict[str, float] | None = None) -> None:
+                 heartbeat_timeouts_s: dict[str, float] | None = None, excuser: Excuser | None = None,
+                 max_excused_s: float = 1.0, note_after_s: float = 0.08) -> None:
+        self.excuser = excuser
+        self.max_excused_s = max_excused_s
+        self.note_after_s = note_after_s
+        self.excused: list[tuple[str, str]] = []  # (service, why) of the last `pending` call
         self.heartbeat_timeout_s = heartbeat_timeout_s
         self.heartbeat_timeouts_s = dict(heartbeat_timeouts_s or {})
         self.stream_timeout_s = stream_timeout_s
@@ -117,23 +142,42 @@ class Watchdog:
         return out
 
     def pending(self, now_s: float) -> list[Fault]:
-        """The faults `check` would report at `now_s`, without reporting them."""
+        """The faults `check` would report at `now_s`, without reporting them (silences the
+        excuser excuses are listed in `excused` instead)."""
         out = []
+        self.excused = []
         for name, w in self._w.items():
             if w.reported or not w.seen:
                 continue
-            fault = None
             if not w.alive:
-                fault = Fault(name, "lost", "process gone (liveliness token lost)", now_s, w.lost_at_s or now_s)
-            elif (w.last_beat_s is not None
-                  and now_s - w.last_beat_s > self.heartbeat_timeouts_s.get(name, self.heartbeat_timeout_s)):
-                fault = Fault(name, "silent", f"silent: no heartbeat for {now_s - w.last_beat_s:.3f} s",
-                              now_s, w.last_beat_s)
-            else:
-                for suffix, at_s in w.streams.items():
-                    if now_s - at_s > self.stream_timeout_s:
-                        fault = Fault(name, "silent", f"silent: no {suffix} for {now_s - at_s:.3f} s", now_s, at_s)
-                        break
-            if fault is not None:
+                out.append(Fault(name, "lost", "process gone (liveliness token lost)", now_s, w.lost_at_s or now_s))
+                continue
+            fault = self._silence(name, w, now_s)
+            if fault is None:
+                continue
+            why = None
+            if self.excuser is not None and now_s - fault.since_s <= self.max_excused_s:
+                why = self.excuser.excuse(name, now_s)
+            if why is None:
                 out.append(fault)
+            else:
+                self.excused.append((name, f"{fault.detail}, excused: starved of CPU ({why})"))
         return out
+
+    def _silence(self, name: str, w: _Watched, now_s: float) -> Fault | None:
+        """The silence fault of one live service at `now_s` (None: it is not silent); a
+        service quiet for `note_after_s` is noted to the excuser."""
+        timeout_s = self.heartbeat_timeouts_s.get(name, self.heartbeat_timeout_s)
+        quiet_s = 0.0 if w.last_beat_s is None else now_s - w.last_beat_s
+        fault = None
+        if w.last_beat_s is not None and quiet_s > timeout_s:
+            fault = Fault(name, "silent", f"silent: no heartbeat for {quiet_s:.3f} s", now_s, w.last_beat_s)
+        else:
+            for suffix, at_s in w.streams.items():
+                quiet_s = max(quiet_s, now_s - at_s)
+                if now_s - at_s > self.stream_timeout_s:
+                    fault = Fault(name, "silent", f"silent: no {suffix} for {now_s - at_s:.3f} s", now_s, at_s)
+                    break
+        if self.excuser is not None and quiet_s > self.note_after_s:
+            self.excuser.note(name, now_s)
+        return fault

@@ -91,23 +91,32 @@ def _processes(launcher: psutil.Process, text: str) -> dict[str, psutil.Process]
     known = {p.pid for p in procs.values()}
     for child in launcher.children():
         if child.pid not in known:  # e.g. the router process
-            procs[f"other:{child.name()}:{child.pid}"] = child
+            try:
+                is_router = "services.launcher.router" in " ".join(child.cmdline())
+            except psutil.Error:
+                is_router = False
+            procs["router" if is_router else f"other:{child.name()}:{child.pid}"] = child
     return procs
 
 
 def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: float = 3.0,
-              extra_args: list[str] | None = None, timeout_s: float = 120.0) -> CpuWindow:
+              extra_args: list[str] | None = None, timeout_s: float = 120.0,
+              checkout: Path | None = None) -> CpuWindow:
     """Start `handover-up --job JOB`, measure per-process CPU over the window, stop it.
 
     `job="none"`: the window starts `settle_s` after every service is alive and lasts `idle_s`.
     `job="handover"`: the window runs from the first episode's ``locate`` line to the summary.
+    `checkout`: run the stack of another source tree (e.g. an older commit's, for a baseline
+    measured in the same sitting); its modules shadow the installed ones (``python -m`` puts the
+    working directory first on the path, and the launcher's children inherit it).
     """
     out_path = tmp_dir / f"handover-up-{job}.log"
     cmd = [sys.executable, "-m", "services.launcher", "--port", "auto", "--job", job,
            "--recording-dir", str(tmp_dir), "--run-id", f"cpu-{job}", *(extra_args or [])]
     t_launch = time.monotonic()
     with open(out_path, "w") as out:
-        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                cwd=checkout)
     try:
         launcher = psutil.Process(proc.pid)
         text = _wait_for(out_path, _ALIVE, proc, timeout_s)

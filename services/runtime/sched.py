@@ -1,0 +1,187 @@
+"""Was a silent process starved of CPU, or is it frozen? (one host; `/proc` reads only.)
+
+A watchdog that hears nothing from a service for its time-out cannot tell, from the silence
+alone, a process the kernel never let run (a busy machine: a compile, a test run, the viewer)
+from a frozen or hung one. The kernel can: per thread it counts the time spent waiting on the
+run queue, runnable but not running (``/proc/PID/task/TID/schedstat``, second field, ns), and
+it says whether a process is stopped (``/proc/PID/stat`` state ``T``/``t``).
+
+`StarvationJudge.excuse(pid, now_s)` answers for one watched process:
+
+- **starved** (excused): over the last window (≥ `WINDOW_S`), its threads together waited on
+  the run queue for at least `STARVED_FRACTION` of the window. A frozen (SIGSTOP) process
+  never waits on the run queue; nor does one blocked on a lock or an I/O, nor one that spins
+  on a CPU (that one runs): none of those is ever excused.
+- otherwise, or when the process is stopped, gone, or not readable: not excused.
+
+The caller bounds the excuse (`MAX_EXCUSED_S`: a silence longer than that is a fault whatever
+the reason) and uses it only when every watched process runs on this host.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+#: Shortest window over which run-queue wait is judged, s.
+WINDOW_S = 0.08
+#: A reading older than this starts a new window instead of closing one (an earlier quiet
+#: spell's), s.
+STALE_BASE_S = 4 * WINDOW_S
+#: A process whose threads waited on the run queue for at least this fraction of the window
+#: was starved of CPU, not frozen.
+STARVED_FRACTION = 0.5
+#: A silence longer than this is a fault even when the process was starved, s.
+MAX_EXCUSED_S = 1.0
+_STOPPED_STATES = frozenset("TtZXx")
+
+
+@dataclass(frozen=True)
+class SchedSample:
+    """One reading of a process's scheduler figures.
+
+    Attributes:
+        at_s: local monotonic time of the reading, s.
+        queue_wait_s: run-queue wait of all its threads so far, s.
+        state: the main thread's state letter (``R``, ``S``, ``D``, ``T`` …).
+    """
+
+    at_s: float
+    queue_wait_s: float
+    state: str
+
+
+def parse_state(stat_text: str) -> str | None:
+    """The state letter of a ``/proc/PID/stat`` line (the field after the ``(comm)``)."""
+    close = stat_text.rfind(")")
+    if close < 0 or close + 2 >= len(stat_text):
+        return None
+    return stat_text[close + 2]
+
+
+def read_sched(pid: int, at_s: float, proc_root: str = "/proc") -> SchedSample | None:
+    """`SchedSample` of process `pid` now (None when it is gone or unreadable)."""
+    base = f"{proc_root}/{pid}"
+    try:
+        with open(f"{base}/stat", "rb") as f:
+            state = parse_state(f.read(512).decode("ascii", "replace"))
+        wait_ns = 0
+        for tid in os.listdir(f"{base}/task"):
+            try:
+                with open(f"{base}/task/{tid}/schedstat", "rb") as f:
+                    fields = f.read(128).split()
+            except OSError:  # the thread ended meanwhile
+                continue
+            if len(fields) >= 2 and fields[1].isdigit():
+                wait_ns += int(fields[1])
+    except OSError:
+        return None
+    if state is None:
+        return None
+    return SchedSample(at_s, wait_ns / 1e9, state)
+
+
+def starved(older: SchedSample, newer: SchedSample, fraction: float = STARVED_FRACTION) -> bool:
+    """True when, between the two samples, the process waited on the run queue for at least
+    `fraction` of the time and is not stopped now."""
+    span = newer.at_s - older.at_s
+    if span <= 0.0 or newer.state in _STOPPED_STATES:
+        return False
+    return newer.queue_wait_s - older.queue_wait_s >= fraction * span
+
+
+class StarvationJudge:
+    """Judges watched processes by their run-queue wait (see the module docstring).
+
+    Call `note(pid, now_s)` at the watcher's tick for every watched process that has been
+    quiet for a while (cheap: it reads only once per `WINDOW_S` per process), and
+    `excuse(pid, now_s)` when one looks silent.
+
+    Args:
+        read: `read_sched`-like reader (tests pass a fake).
+    """
+
+    def __init__(self, read=read_sched) -> None:
+        self._read = read
+        self._base: dict[int, SchedSample] = {}
+        self._verdict: dict[int, tuple[bool, str]] = {}
+
+    def note(self, pid: int, now_s: float) -> None:
+        """Take a reading of `pid` if the last is at least `WINDOW_S` old, and judge the window."""
+        base = self._base.get(pid)
+        if base is not None and now_s - base.at_s < WINDOW_S:
+            return
+        if base is not None and now_s - base.at_s > STALE_BASE_S:  # from an earlier quiet spell
+            base = None
+            self._verdict.pop(pid, None)
+        sample = self._read(pid, now_s)
+        if sample is None:
+            self._base.pop(pid, None)
+            self._verdict[pid] = (False, "process not readable")
+            return
+        if base is not None:
+            waited = sample.queue_wait_s - base.queue_wait_s
+            why = (f"its threads waited {1000.0 * waited:.0f} ms for a CPU in the last "
+                   f"{1000.0 * (sample.at_s - base.at_s):.0f} ms (state {sample.state})")
+            self._verdict[pid] = (starved(base, sample), why)
+        self._base[pid] = sample
+
+    def forget(self, pid: int) -> None:
+        """Drop what is known of `pid` (a process heard from again, or gone)."""
+        self._base.pop(pid, None)
+        self._verdict.pop(pid, None)
+
+    def excuse(self, pid: int, now_s: float) -> str | None:
+        """Why `pid`'s silence is starvation (one clause), or None when it is not excused."""
+        self.note(pid, now_s)
+        verdict = self._verdict.get(pid)
+        if verdict is None or not verdict[0]:
+            return None
+        fresh = self._read(pid, now_s)  # stopped since the last window? (SIGSTOP is never excused)
+        if fresh is None or fresh.state in _STOPPED_STATES:
+            return None
+        return verdict[1]
+
+
+def runs_a_service(pid: int, proc_root: str = "/proc") -> bool:
+    """True when process `pid` on this host runs one of the stack's modules
+    (``python -m services.…``): a process id read from the bus is used only then."""
+    try:
+        with open(f"{proc_root}/{pid}/cmdline", "rb") as f:
+            argv = f.read(4096).split(b"\0")
+    except OSError:
+        return False
+    return any(arg.startswith(b"services.") for arg in argv)
+
+
+class ServiceStarvation:
+    """`StarvationJudge` by service name, for `services.supervisor.watchdog.Watchdog` (an
+    `Excuser`): each service's process id comes with its heartbeats (`Heartbeat.pid`) and is
+    used once `/proc/PID/cmdline` shows a module of the stack."""
+
+    def __init__(self, judge: StarvationJudge | None = None, check_pid=runs_a_service) -> None:
+        self.judge = judge or StarvationJudge()
+        self._check_pid = check_pid
+        self._pids: dict[str, int] = {}
+        self._refused: set[int] = set()
+
+    def heard(self, service: str, pid: int) -> None:
+        """A heartbeat of `service` said it runs as `pid` (0: not said)."""
+        if pid <= 0 or self._pids.get(service) == pid or pid in self._refused:
+            return
+        if not self._check_pid(pid):
+            self._refused.add(pid)
+            return
+        old = self._pids.get(service)
+        if old is not None:
+            self.judge.forget(old)
+        self._pids[service] = pid
+
+    def note(self, service: str, now_s: float) -> None:
+        pid = self._pids.get(service)
+        if pid is not None:
+            self.judge.note(pid, now_s)
+
+    def excuse(self, service: str, now_s: float) -> str | None:
+        pid = self._pids.get(service)
+        return None if pid is None else self.judge.excuse(pid, now_s)

@@ -1,0 +1,160 @@
+"""Starved or frozen: the run-queue judge (`services.runtime.sched`) on fake readings and on real
+processes (a busy loop pinned beside a hog, and a stopped one)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from services.runtime.sched import (MAX_EXCUSED_S, SchedSample, ServiceStarvation, StarvationJudge, parse_state,
+                                    read_sched, runs_a_service, starved)
+from services.supervisor.watchdog import Watchdog
+
+
+def test_state_and_run_queue_wait_of_this_process_are_read():
+    assert parse_state("123 (python -m x) S 1 2 3") == "S"
+    assert parse_state("123 (a) b) T 1") == "T"  # the last ')' ends the name
+    assert parse_state("garbage") is None
+    sample = read_sched(os.getpid(), 5.0)
+    assert sample is not None and sample.state == "R" and sample.queue_wait_s >= 0.0 and sample.at_s == 5.0
+    assert read_sched(2 ** 22 + 1, 0.0) is None  # no such process
+
+
+def test_starved_needs_half_the_window_on_the_run_queue_and_not_stopped():
+    a = SchedSample(10.0, 1.0, "R")
+    assert starved(a, SchedSample(10.1, 1.06, "R"))
+    assert not starved(a, SchedSample(10.1, 1.04, "R"))  # 40 % of the window
+    assert not starved(a, SchedSample(10.1, 1.09, "T"))  # stopped now
+    assert not starved(a, SchedSample(10.0, 1.09, "R"))  # no window
+
+
+class FakeReader:
+    def __init__(self) -> None:
+        self.samples: dict[int, SchedSample | None] = {}
+        self.reads = 0
+
+    def __call__(self, pid: int, at_s: float) -> SchedSample | None:
+        self.reads += 1
+        s = self.samples.get(pid)
+        return None if s is None else SchedSample(at_s, s.queue_wait_s, s.state)
+
+
+def test_the_judge_excuses_only_after_a_starved_window_and_never_a_stopped_process():
+    fake = FakeReader()
+    judge = StarvationJudge(fake)
+    fake.samples[7] = SchedSample(0.0, 1.0, "R")
+    assert judge.excuse(7, 10.0) is None  # one reading: no window yet
+    fake.samples[7] = SchedSample(0.0, 1.07, "R")
+    judge.note(7, 10.05)  # under a window: not read
+    assert fake.reads == 1
+    why = judge.excuse(7, 10.1)  # 70 ms of 100 on the run queue
+    assert why is not None and "waited 70 ms" in why
+    fake.samples[7] = SchedSample(0.0, 1.07, "T")  # SIGSTOP since the window: at once not excused
+    assert judge.excuse(7, 10.12) is None
+    fake.samples[7] = SchedSample(0.0, 1.08, "S")  # blocked: 10 ms of 100 waited
+    assert judge.excuse(7, 10.22) is None
+
+
+def test_an_old_reading_opens_a_new_window_rather_than_closing_one():
+    fake = FakeReader()
+    judge = StarvationJudge(fake)
+    fake.samples[3] = SchedSample(0.0, 1.0, "R")
+    judge.note(3, 0.0)
+    fake.samples[3] = SchedSample(0.0, 3.0, "R")  # 2 s waited ... over 10 s: another quiet spell
+    assert judge.excuse(3, 10.0) is None
+
+
+def test_service_starvation_uses_pids_only_of_the_stacks_processes():
+    fake = FakeReader()
+    checked = []
+    adapter = ServiceStarvation(StarvationJudge(fake), check_pid=lambda pid: checked.append(pid) or pid == 11)
+    adapter.heard("bridge", 0)
+    adapter.heard("bridge", 12)  # not one of ours: refused, and not checked again
+    adapter.heard("bridge", 12)
+    assert checked == [12] and adapter.excuse("bridge", 1.0) is None
+    adapter.heard("bridge", 11)
+    fake.samples[11] = SchedSample(0.0, 0.0, "R")
+    adapter.note("bridge", 1.0)
+    fake.samples[11] = SchedSample(0.0, 0.09, "R")
+    assert adapter.excuse("bridge", 1.1) is not None
+
+
+
+def test_only_a_process_running_a_module_of_the_stack_counts_as_a_service():
+    assert not runs_a_service(os.getpid())  # pytest
+    assert not runs_a_service(2 ** 22 + 1)
+    proc = subprocess.Popen([sys.executable, "-m", "services.launcher.router"], stdin=subprocess.PIPE,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # waits for its config
+    try:
+        assert runs_a_service(proc.pid)
+    finally:
+        proc.kill()
+        proc.wait(5.0)
+
+
+class FixedExcuser:
+    def __init__(self, why: str | None) -> None:
+        self.why, self.noted = why, []
+
+    def note(self, service: str, now_s: float) -> None:
+        self.noted.append((service, now_s))
+
+    def excuse(self, service: str, now_s: float) -> str | None:
+        return self.why
+
+
+def test_the_watchdog_excuses_a_starved_silence_up_to_its_bound_but_never_a_lost_service():
+    excuser = FixedExcuser("its threads waited 200 ms for a CPU")
+    dog = Watchdog(["bridge", "gripper"], heartbeat_timeout_s=0.25, excuser=excuser, max_excused_s=1.0)
+    for name in ("bridge", "gripper"):
+        dog.liveliness(name, True, 0.0)
+        dog.heartbeat(name, 0.0)
+    assert dog.check(0.1) == [] and ("bridge", 0.1) in excuser.noted  # quiet > 80 ms: noted
+    assert dog.check(0.5) == [] and {s for s, _ in dog.excused} == {"bridge", "gripper"}
+    dog.liveliness("gripper", False, 0.6)
+    faults = dog.check(0.6)
+    assert [(f.service, f.what) for f in faults] == [("gripper", "lost")]
+    faults = dog.check(1.01)  # past the bound: silent whatever the reason
+    assert [(f.service, f.what) for f in faults] == [("bridge", "silent")]
+    plain = Watchdog(["bridge"], heartbeat_timeout_s=0.25, excuser=FixedExcuser(None))
+    plain.liveliness("bridge", True, 0.0)
+    plain.heartbeat("bridge", 0.0)
+    assert [f.service for f in plain.check(0.26)] == ["bridge"]
+
+
+_SPIN = "import os, sys\nos.nice(int(sys.argv[1]))\nwhile True:\n    pass\n"
+
+
+def _spinner(nice: int, cpu: int) -> subprocess.Popen:
+    proc = subprocess.Popen([sys.executable, "-c", _SPIN, str(nice)])
+    os.sched_setaffinity(proc.pid, {cpu})
+    return proc
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="needs Linux CPU affinity")
+def test_a_real_starved_process_is_excused_and_a_stopped_one_is_not():
+    cpu = sorted(os.sched_getaffinity(0))[0]
+    hog, starving, stopped = _spinner(0, cpu), _spinner(19, cpu), _spinner(0, cpu)
+    try:
+        time.sleep(0.3)
+        stopped.send_signal(signal.SIGSTOP)
+        judge = StarvationJudge()
+        t0 = time.monotonic()
+        for pid in (starving.pid, stopped.pid):
+            judge.note(pid, t0)
+        time.sleep(0.3)
+        now = time.monotonic()
+        why = judge.excuse(starving.pid, now)
+        assert why is not None, "a nice-19 loop sharing one CPU with a nice-0 hog waits on the run queue"
+        assert judge.excuse(stopped.pid, now) is None, "a stopped process is frozen, not starved"
+        assert MAX_EXCUSED_S <= 1.0
+    finally:
+        for proc in (hog, starving, stopped):
+            proc.send_signal(signal.SIGCONT)
+            proc.kill()
+            proc.wait(5.0)
