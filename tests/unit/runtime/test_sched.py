@@ -13,6 +13,7 @@ import pytest
 
 from services.runtime.sched import (MAX_EXCUSED_S, SchedSample, ServiceStarvation, StarvationJudge, parse_state,
                                     read_sched, runs_a_service, starved)
+from services.runtime.testing import wait_until
 from services.supervisor.watchdog import Watchdog
 
 
@@ -91,7 +92,7 @@ def test_only_a_process_running_a_module_of_the_stack_counts_as_a_service():
     proc = subprocess.Popen([sys.executable, "-m", "services.launcher.router"], stdin=subprocess.PIPE,
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # waits for its config
     try:
-        assert runs_a_service(proc.pid)
+        assert wait_until(lambda: runs_a_service(proc.pid), 5.0)  # once it has exec'd
     finally:
         proc.kill()
         proc.wait(5.0)
