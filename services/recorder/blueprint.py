@@ -5,10 +5,15 @@ on the right, time series of the transfer loop's signals and a text log of event
 
 - Grip force (N): command F_G (``gripper/command``), measured (``gripper/state``), grip force at
   release (a marker);
-- Wrist force (N): F_sx, F_sy (``sensors/wrist_wrench/force_n/0``, ``/1``);
+- Wrist force (N): F_sx, F_sy (instances 0 and 1 of ``WristWrench:force_n``);
 - Object motion: a_y (m/s², down +) and slip velocity along y (m/s) from ``sensors/object_motion``;
 - Gripper mode (0 grasp, 1 slip, 2 release, 3 hold) and joint positions (rad);
 - Events: supervisor phases, motion, gripper modes, stops and the release.
+
+The bus signals are components of the ``bus/<key>`` entities (`bus_columns`: one entity per key,
+one component per message field); their panels plot them through component mappings
+(``Scalars:scalars`` ← ``<MessageType>:<field>``, Rerun's "plot any scalar"), so nothing is
+written twice.
 
 The 3-D view is set up explicitly rather than left to the viewer's heuristics: its target frame
 is Baxter's ``base`` (the frame the URDF's links hang from and every ``world/…`` entity is
@@ -24,25 +29,57 @@ from __future__ import annotations
 import functools
 import os
 import xml.etree.ElementTree as ET
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import rerun as rr
 import rerun.blueprint as rrb
+from rerun.blueprint.encodings import ComponentSourceKind, VisualizerComponentMapping
 
 from services.recorder.columns import TIMELINE_STAMP
 from services.recorder.core import POINT_STYLES
 
-#: Time series shown in the signal panels: entity → (legend name, RGB colour).
-SIGNALS: dict[str, tuple[str, tuple[int, int, int]]] = {
-    "bus/gripper/command/grip_force_n": ("F_G command", (30, 110, 230)),
-    "bus/gripper/state/measured_grip_force_n": ("F_G measured", (120, 180, 255)),
-    "bus/sensors/wrist_wrench/force_n/0": ("F_sx (pull)", (220, 80, 40)),
-    "bus/sensors/wrist_wrench/force_n/1": ("F_sy (load, down +)", (40, 160, 60)),
-    "bus/sensors/object_motion/accel_y_m_s2": ("a_y (m/s², down +)", (200, 50, 160)),
-    "bus/sensors/object_motion/velocity_m_s/1": ("slip velocity y (m/s)", (120, 60, 200)),
-    "signals/gripper_mode": ("mode: 0 grasp 1 slip 2 release 3 hold", (90, 90, 90)),
+@dataclass(frozen=True)
+class Signal:
+    """A plotted series: `component` of the ``bus/<key>`` `entity`, one legend name and RGB colour
+    per instance (``force_n`` has three), `visible` per instance (None: all)."""
+
+    entity: str
+    component: str
+    names: tuple[str, ...]
+    colors: tuple[tuple[int, int, int], ...]
+    visible: tuple[bool, ...] | None = None
+
+    def visualizer(self) -> Any:
+        """A `SeriesLines` visualizer reading its scalars from `component` (a component mapping)."""
+        lines = rr.SeriesLines(names=list(self.names), colors=list(self.colors),
+                               visible_series=list(self.visible) if self.visible else None)
+        return lines.visualizer(mappings=[VisualizerComponentMapping(
+            target="Scalars:scalars", source_kind=ComponentSourceKind.SourceComponent,
+            source_component=self.component)])
+
+
+#: The signal panels: title → series (bus components are plotted through component mappings).
+PANELS: dict[str, tuple[Signal, ...]] = {
+    "Grip force (N)": (
+        Signal("bus/gripper/command", "GripperCommand:grip_force_n", ("F_G command",), ((30, 110, 230),)),
+        Signal("bus/gripper/state", "GripperState:measured_grip_force_n", ("F_G measured",), ((120, 180, 255),)),
+    ),
+    "Wrist force F_sx, F_sy (N)": (
+        Signal("bus/sensors/wrist_wrench", "WristWrench:force_n", ("F_sx (pull)", "F_sy (load, down +)", "F_sz"),
+               ((220, 80, 40), (40, 160, 60), (120, 120, 120)), (True, True, False)),
+    ),
+    "Object: a_y (m/s²), slip velocity (m/s)": (
+        Signal("bus/sensors/object_motion", "ObjectMotion:accel_y_m_s2", ("a_y (m/s², down +)",), ((200, 50, 160),)),
+        Signal("bus/sensors/object_motion", "ObjectMotion:velocity_m_s", ("slip velocity x (m/s)",
+                                                                          "slip velocity y (m/s)"),
+               ((60, 60, 200), (120, 60, 200)), (False, True)),
+    ),
 }
+
+#: The release marker on the grip force panel (a point series).
+RELEASE_SERIES = "signals/release_grip_force_n"
 
 
 #: Every 3-D entity the recorder writes (all in the `base` frame).
@@ -51,14 +88,25 @@ WORLD_ENTITIES: tuple[str, ...] = (*POINT_STYLES, "world/skeleton/raw", "world/s
                                    "world/motion/goal_arrow", "world/release")
 
 
+#: Static looks of the review entities sent as columns (`derived`).
+_REVIEW_STYLES: tuple[tuple[str, Any], ...] = (
+    ("world/skeleton/raw", rr.Points3D.from_fields(radii=[0.02], colors=[(200, 60, 60)], show_labels=False)),
+    ("world/skeleton/bones", rr.LineStrips3D.from_fields(radii=[0.008], colors=[(200, 90, 90)])),
+    ("world/human/hand_correction", rr.Arrows3D.from_fields(radii=[0.004], colors=[(40, 200, 80)])),
+    ("world/object/estimate", rr.Boxes3D.from_fields(colors=[(230, 120, 20)])),
+    ("signals/gripper_mode", rr.SeriesLines(names=["mode: 0 grasp 1 slip 2 release 3 hold"], colors=[(90, 90, 90)],
+                                            interpolation_mode="StepAfter")),
+)
+
+
 def static_styles() -> list[tuple[str, Any]]:
-    """(entity, archetype) to log once as static: point looks and series names/colours."""
+    """(entity, archetype) to log once as static: point looks, series names/colours, frames."""
     out: list[tuple[str, Any]] = [
         (entity, rr.Points3D.from_fields(radii=[s.radius_m], colors=[s.color_rgb], labels=[s.label]))
         for entity, s in POINT_STYLES.items()
     ]
-    out += [(entity, rr.SeriesLines(names=[name], colors=[rgb])) for entity, (name, rgb) in SIGNALS.items()]
-    out.append(("signals/release_grip_force_n", rr.SeriesPoints(names=["release (F_G at release)"],
+    out += [(entity, archetype) for entity, archetype in _REVIEW_STYLES]
+    out.append((RELEASE_SERIES, rr.SeriesPoints(names=["release (F_G at release)"],
                                                                 colors=[(255, 40, 40)], markers=["cross"],
                                                                 marker_sizes=[8.0])))
     out.append(("world", rr.ViewCoordinates.FLU))
@@ -128,6 +176,17 @@ def view_3d(robot_name: str | None) -> rrb.Spatial3DView:
         eye_controls=rrb.EyeControls3D(position=EYE_POSITION_M, look_target=EYE_TARGET_M, eye_up=(0.0, 0.0, 1.0)))
 
 
+def signal_view(title: str, signals: tuple[Signal, ...]) -> rrb.TimeSeriesView:
+    """A time series view of `signals` (the grip force view also shows the release marker)."""
+    overrides: dict[str, list[Any]] = {}
+    for signal in signals:
+        overrides.setdefault(signal.entity, []).append(signal.visualizer())
+    contents = [f"/{entity}" for entity in overrides]
+    if signals[0].component == "GripperCommand:grip_force_n":
+        contents.append(f"/{RELEASE_SERIES}")
+    return rrb.TimeSeriesView(name=title, origin="/", contents=contents, overrides=overrides)
+
+
 def blueprint(robot_name: str | None, follow_latest: bool = False) -> rrb.Blueprint:
     """3-D view, signal panels and event log (sent once at the start of a recording).
 
@@ -142,13 +201,7 @@ def blueprint(robot_name: str | None, follow_latest: bool = False) -> rrb.Bluepr
                 row_shares=[3, 1],
             ),
             rrb.Vertical(
-                rrb.TimeSeriesView(name="Grip force (N)", origin="/", contents=[
-                    "/bus/gripper/command/grip_force_n", "/bus/gripper/state/measured_grip_force_n",
-                    "/signals/release_grip_force_n"]),
-                rrb.TimeSeriesView(name="Wrist force F_sx, F_sy (N)", origin="/", contents=[
-                    "/bus/sensors/wrist_wrench/force_n/0", "/bus/sensors/wrist_wrench/force_n/1"]),
-                rrb.TimeSeriesView(name="Object: a_y (m/s²), slip velocity (m/s)", origin="/", contents=[
-                    "/bus/sensors/object_motion/accel_y_m_s2", "/bus/sensors/object_motion/velocity_m_s/1"]),
+                *(signal_view(title, signals) for title, signals in PANELS.items()),
                 rrb.TimeSeriesView(name="Gripper mode", origin="/signals/gripper_mode"),
                 rrb.TimeSeriesView(name="Joint positions (rad)", origin="/robot/joint_position"),
             ),

@@ -1,39 +1,32 @@
-"""Pure mapping from bus messages to Rerun entities (no I/O).
+"""Pure pieces of the recorder's mapping from bus messages to Rerun entities (no I/O).
 
-`message_rows(topic, msg)` returns what one message adds to the recording, split by how it is
-written:
+- `numeric_fields`: the numeric series of a message, by field path (``force_n/1``): the names
+  `readback.read_scalars` gives the series of ``bus/<key>`` (see `bus_columns`);
+- events: `event_text`, `event_key` (what must change for an event to be logged again),
+  `event_is_warning`;
+- the 3-D look of one-point entities (`POINT_STYLES`), skeleton bones, gripper mode codes.
 
-- ``scalars``: (entity, value) — one row per message, written in columns (batched);
-- ``points``: (entity, (x, y, z)) — one 3-D point per message in the `base` frame, also
-  written in columns; the point's look (radius, colour, label) is static, see `POINT_STYLES`;
-- ``logs``: (entity, archetype) — everything else (skeletons, depth, text), logged per message.
-
-Conventions:
-- every numeric field of every message becomes a scalar series under
-  ``bus/<key suffix>/<field path>`` (nested tuples get an index: ``force_n/1``), so nothing
-  on the bus is lost from the recording;
-- joints also get ``robot/joint_position/<joint>`` (and velocity, command) series;
-- the 3-D world is Baxter's `base` frame (x forward, y left, z up, metres) under ``world/…``;
-- supervisor, motion and gripper events are text under ``events``.
+Conventions: the 3-D world is Baxter's `base` frame (x forward, y left, z up, metres) under
+``world/…``; supervisor, motion and gripper events are text under ``events``.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import msgspec
-import rerun as rr
 
-from bus_schema import Topic, messages as m
+from bus_schema import messages as m
 
 Vec3 = tuple[float, float, float]
 
 #: Message fields that are header or bookkeeping, not data to plot.
 _SKIP_FIELDS = frozenset({"seq", "stamp_ns", "source", "depth_mm", "names", "joints"})
 
-_EVENT_TYPES = (m.SupervisorState, m.MotionStatus, m.MotionStop, m.ReleaseEvent, m.GripperState)
+#: Messages that make lines of the event log.
+EVENT_TYPES = (m.SupervisorState, m.MotionStatus, m.MotionStop, m.ReleaseEvent, m.GripperState)
 
 #: Gripper mode as a number for the mode series (``signals/gripper_mode``).
 GRIPPER_MODE_CODE: dict[str, float] = {"grasp": 0.0, "slip": 1.0, "release": 2.0, "hold": 3.0}
@@ -48,7 +41,7 @@ class PointStyle:
     label: str
 
 
-#: Every entity that `message_rows` returns under ``points``, with its look.
+#: Every one-point-per-message entity (`derived`), with its static look.
 POINT_STYLES: dict[str, PointStyle] = {
     "world/truth/object": PointStyle(0.035, (230, 120, 20), "object (truth)"),
     "world/truth/receiver_hand": PointStyle(0.02, (150, 150, 150), "receiver hand (truth)"),
@@ -68,15 +61,6 @@ SKELETON_BONES: tuple[tuple[str, str], ...] = (
     ("torso", "right_hip"), ("right_hip", "right_knee"), ("right_knee", "right_foot"),
     ("left_hip", "right_hip"),
 )
-
-
-@dataclass
-class MessageRows:
-    """What one message adds to the recording (see the module docstring)."""
-
-    scalars: list[tuple[str, float]] = field(default_factory=list)
-    points: list[tuple[str, Vec3]] = field(default_factory=list)
-    logs: list[tuple[str, Any]] = field(default_factory=list)
 
 
 def numeric_fields(msg: msgspec.Struct, prefix: str = "") -> Iterator[tuple[str, float]]:
@@ -133,55 +117,6 @@ def skeleton_bones(joints: list[m.SkeletonJoint]) -> list[list[Vec3]]:
     return [[where[a], where[b]] for a, b in SKELETON_BONES if a in where and b in where]
 
 
-def message_rows(topic: Topic, msg: m.Message, log_event_text: bool = True) -> MessageRows:
-    """Entities to write for one message of `topic` (stateless part; see `review.ReviewState`)."""
-    rows = MessageRows()
-    base = f"bus/{topic.suffix}"
-    rows.scalars = [(f"{base}/{path}", value) for path, value in numeric_fields(msg)]
-
-    if isinstance(msg, m.JointState):
-        rows.scalars += [(f"robot/joint_position/{n}", q) for n, q in zip(msg.names, msg.position_rad, strict=False)]
-        rows.scalars += [(f"robot/joint_velocity/{n}", v) for n, v in zip(msg.names, msg.velocity_rad_s, strict=False)]
-    elif isinstance(msg, m.JointCommand):
-        rows.scalars += [(f"robot/joint_command/{n}", q) for n, q in zip(msg.names, msg.position_rad, strict=False)]
-    elif isinstance(msg, m.Skeleton):
-        if msg.tracked and msg.joints:
-            rows.logs.append(("world/skeleton/raw", rr.Points3D(
-                [j.position_m for j in msg.joints], labels=[j.name for j in msg.joints], radii=0.02,
-                colors=[(200, 60, 60)], show_labels=False)))
-            rows.logs.append(("world/skeleton/bones", rr.LineStrips3D(
-                skeleton_bones(msg.joints), radii=0.008, colors=[(200, 90, 90)])))
-    elif isinstance(msg, m.HumanState):
-        if msg.tracked:
-            rows.points.append(("world/human/hand_corrected", msg.hand_position_m))
-            rows.points.append(("world/human/hand_raw", msg.hand_raw_position_m))
-            correction = tuple(c - r for c, r in zip(msg.hand_position_m, msg.hand_raw_position_m, strict=True))
-            rows.logs.append(("world/human/hand_correction", rr.Arrows3D(
-                origins=[msg.hand_raw_position_m], vectors=[correction], colors=[(40, 200, 80)], radii=0.004)))
-    elif isinstance(msg, m.ObjectEstimate):
-        if msg.found:
-            rows.logs.append(("world/object/estimate", rr.Boxes3D(centers=[msg.position_m], sizes=[msg.size_m],
-                                                                  colors=[(230, 120, 20)])))
-    elif isinstance(msg, m.TransferTarget):
-        rows.points.append(("world/transfer_target", msg.position_base_m))
-    elif isinstance(msg, m.MotionGoal):
-        if msg.position_base_m is not None:
-            rows.points.append(("world/motion/goal", msg.position_base_m))
-    elif isinstance(msg, m.GripperState):
-        rows.scalars.append(("signals/gripper_mode", GRIPPER_MODE_CODE[msg.mode]))
-    elif isinstance(msg, m.SimTruth):
-        rows.points.append(("world/truth/object", msg.object_position_m))
-        rows.points.append(("world/truth/receiver_hand", msg.receiver_hand_position_m))
-        rows.points.append(("world/tool", msg.tool_position_m))
-    elif isinstance(msg, m.DepthImage):
-        import numpy as np
-
-        depth = np.frombuffer(msg.depth_mm, dtype="<u2").reshape(msg.height, msg.width)
-        rows.logs.append(("camera/depth", rr.DepthImage(depth, meter=1000.0)))
-
-    if log_event_text and isinstance(msg, _EVENT_TYPES):
-        text = event_text(msg)
-        if text:
-            level = rr.TextLogLevel.WARN if isinstance(msg, (m.MotionStop, m.ReleaseEvent)) else rr.TextLogLevel.INFO
-            rows.logs.append(("events", rr.TextLog(text, level=level)))
-    return rows
+def event_is_warning(msg: m.Message) -> bool:
+    """Stops and releases are warnings in the event log; the rest is information."""
+    return isinstance(msg, (m.MotionStop, m.ReleaseEvent))

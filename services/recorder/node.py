@@ -1,13 +1,28 @@
-"""Bus wiring of the recorder: everything under ``<prefix>/**`` into one .rrd per run.
+"""Bus wiring of the recorder: every key of the topic table into one .rrd per run.
+
+Subscriptions: one per key of `bus_schema.TOPICS` (`config.recorded_topics`), not
+``<prefix>/**``: keys the recorder does not record never reach the process. Depth images
+(150 kB at 30 Hz: 4.6 MB/s) are subscribed only with ``depth_every`` ≥ 1; keys outside the
+table (which it could not decode) are not subscribed at all, so a stranger publishing on
+thousands of keys costs the recorder nothing.
+
+Intake: each key's subscription hands its samples to a Zenoh ring channel (in Rust: no Python
+callback thread, no GIL, no wake-up per message; a callback subscription costs one Python
+thread per key and ~20 µs of CPU per message). The main thread sleeps until the next flush
+(`flush_period_s`), then `writer.RecordingWriter` drains the channels, decodes, writes and
+flushes the file. Receive time: the sample's timestamp, stamped by the Zenoh router when it
+received the message (routers timestamp by default). A sample without one was delivered inside
+the recorder's own session (its heartbeats): its receive time is its send stamp. Any other key
+without timestamps (no router, or timestamping turned off) gets the same and is logged once.
+A channel holds `QUEUE_CAPACITY` messages (depth: `DEPTH_QUEUE_CAPACITY`): a main thread stalled
+for minutes loses its oldest messages (gaps in the recorded ``seq``) and never blocks the bus.
 
 Start-up order (the launcher waits for the recorder before it starts anything else): open the
-session, declare the liveliness token and subscribe first, and only then import Rerun and
-load Baxter's model; messages that arrive meanwhile wait in the queue. The Zenoh callback
-only enqueues (key, payload, receive time in ns); the main thread decodes and writes through
-`writer.RecordingWriter`, which batches and flushes every `batch_period_s`. On SIGTERM/SIGINT
-the recorder keeps listening until the bus has been quiet for 0.15 s (at most 1 s: the last
-service's final messages may still be in flight), drains the queue, writes and flushes before exit; on SIGKILL the file is valid up
-to the last flush.
+session, subscribe and declare the liveliness token first, and only then import Rerun and load
+Baxter's model; messages that arrive meanwhile wait in the channels. On SIGTERM/SIGINT the
+recorder keeps listening until the bus has been quiet for 0.15 s (at most 1 s: the last
+service's final messages may still be in flight), then writes and flushes before exit; on
+SIGKILL the file is valid up to the last flush.
 
 This module imports neither Rerun nor NumPy at import time (start-up speed).
 """
@@ -15,91 +30,102 @@ This module imports neither Rerun nor NumPy at import time (start-up speed).
 from __future__ import annotations
 
 import logging
-import queue
+import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
-from services.runtime import Profile, ServiceNode, kv
+from bus_schema.topics import DEPTH, HEARTBEAT
+from services.recorder.config import RecorderConfig, recorded_topics
+from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 
 log = logging.getLogger(__name__)
 
 SERVICE_NAME = "recorder"
 
+#: Messages a key's channel holds before it drops its oldest (~5 min of the busiest key).
+QUEUE_CAPACITY = 50_000
+#: The same for depth images (150 kB each): ~8 s at 30 Hz, 40 MB.
+DEPTH_QUEUE_CAPACITY = 256
 
-def consume(inbox: queue.SimpleQueue, writer, should_stop, on_tick=lambda: None) -> None:
-    """Hand queued (key, payload, receive_ns) to `writer` and let it write when due, until
-    `should_stop()`; calls `on_tick()` (the heartbeat) at least every 20 ms; records the queue's
-    peak depth in `writer.stats.max_queue`."""
-    stats = writer.stats
-    while not should_stop():
-        on_tick()
-        try:
-            key, payload, receive_ns = inbox.get(timeout=0.02)
-        except queue.Empty:
-            key = None
-        if key is not None:
-            writer.handle(key, payload, receive_ns)
-            stats.max_queue = max(stats.max_queue, inbox.qsize())
+
+def consume(writer, stop: threading.Event) -> None:
+    """Until `stop` is set: sleep until the writer's next flush, then let it collect and write."""
+    while not stop.wait(writer.seconds_to_flush()):
         writer.pump()
 
 
-def drain(inbox: queue.SimpleQueue, writer) -> None:
-    """Hand everything still queued to `writer` (no waiting)."""
-    while True:
-        try:
-            key, payload, receive_ns = inbox.get_nowait()
-        except queue.Empty:
-            return
-        writer.handle(key, payload, receive_ns)
+def settle(collect: Callable[[], int], quiet_s: float = 0.15, max_s: float = 1.0, poll_s: float = 0.01) -> float:
+    """After a stop request: keep collecting (`collect()` returns how many messages it took)
+    until none arrived for `quiet_s` (at most `max_s`); returns the seconds waited. The launcher
+    stops the recorder right after the last other service, whose final messages may still be on
+    their way through the router."""
+    t0 = last_seen = time.monotonic()
+    while (now := time.monotonic()) - t0 < max_s and now - last_seen < quiet_s:
+        time.sleep(poll_s)
+        if collect():
+            last_seen = time.monotonic()
+    return time.monotonic() - t0
 
 
-def settle(inbox: queue.SimpleQueue, writer, quiet_s: float = 0.15, max_s: float = 1.0) -> None:
-    """After a stop request: keep handing over messages until none arrived for `quiet_s`
-    (at most `max_s`). The launcher stops the recorder right after the last other service,
-    whose final messages may still be on their way through the router."""
-    deadline = time.monotonic() + max_s
-    while (left := deadline - time.monotonic()) > 0:
-        try:
-            key, payload, receive_ns = inbox.get(timeout=min(quiet_s, left))
-        except queue.Empty:
-            return
-        writer.handle(key, payload, receive_ns)
+#: Receive time of a sample that carries no router timestamp: the writer uses the message's stamp.
+NO_RECEIVE_TIME = -1
+
+
+def channel_source(subscriber, topic, missing_stamp: RateLimitedLog) -> Callable[[], list[tuple[bytes, int]]]:
+    """A writer source draining `subscriber`'s channel: (payload, receive time ns) per sample,
+    the receive time from the router's timestamp (`NO_RECEIVE_TIME` when it has none)."""
+    def take() -> list[tuple[bytes, int]]:
+        out = []
+        while (sample := subscriber.try_recv()) is not None:
+            stamp = sample.timestamp
+            if stamp is None:
+                if topic is not HEARTBEAT:  # the recorder's own heartbeats never pass the router
+                    missing_stamp.warning("no-timestamp", f"recorder: samples on {topic.suffix} carry no router "
+                                                          "timestamp; receive_time = the sender's stamp")
+                out.append((sample.payload.to_bytes(), NO_RECEIVE_TIME))
+            else:
+                out.append((sample.payload.to_bytes(), stamp.get_time_as_ntp64().as_nanos()))
+        return out
+    return take
 
 
 def default_output_path(directory: Path, run_id: str) -> Path:
     return directory / f"handover-{run_id}.rrd"
 
 
-def run_recorder(profile: Profile, output: Path, log_urdf: bool = True,
-                 flush_period_s: float = 0.1, application_id: str = "handover",
-                 depth_every: int = 3) -> int:
-    """Record the bus into `output` until SIGINT/SIGTERM.
+def run_recorder(profile: Profile, output: Path, config: RecorderConfig | None = None,
+                 application_id: str = "handover") -> int:
+    """Record the bus into `output` until SIGINT/SIGTERM (settings: `RecorderConfig`)."""
+    import zenoh
 
-    `flush_period_s`: how often buffered rows are written and the file flushed (the most a
-    SIGKILL can lose). Depth images (150 kB each at 30 Hz) are logged one in `depth_every`
-    to keep recordings small; every other message is logged.
-    """
-    inbox: queue.SimpleQueue[tuple[str, bytes, int]] = queue.SimpleQueue()
-
-    def on_sample(sample) -> None:  # Zenoh thread: enqueue only
-        inbox.put((str(sample.key_expr), sample.payload.to_bytes(), time.time_ns()))
-
+    config = config or RecorderConfig()
+    topics = recorded_topics(config.depth_every)
     with ServiceNode(SERVICE_NAME, profile) as node:
-        subscriber = node.session.declare_subscriber(f"{profile.prefix}/**", on_sample)
+        subscribers = {t: node.session.declare_subscriber(t.key(profile.prefix), zenoh.handlers.RingChannel(
+            DEPTH_QUEUE_CAPACITY if t is DEPTH else QUEUE_CAPACITY)) for t in topics}
         node.ready()  # alive = listening: nothing may be published before the recorder hears it
         from services.recorder.writer import RecordingWriter  # Rerun, NumPy, PyArrow: after subscribing
 
-        writer = RecordingWriter(output, profile.prefix, log_urdf=log_urdf, batch_period_s=flush_period_s,
-                                 depth_every=depth_every, application_id=application_id)
+        missing_stamp = RateLimitedLog(log, 3600.0)
+        sources = {t: channel_source(sub, t, missing_stamp) for t, sub in subscribers.items()}
+        writer = RecordingWriter(output, profile.prefix, config, application_id=application_id, sources=sources)
         stats = writer.stats
-        log.info("recording", extra=kv(output=str(output), keys=f"{profile.prefix}/**"))
+        log.info("recording", extra=kv(output=str(output), keys=len(topics), depth_every=config.depth_every,
+                                       robot_model=config.robot_model, flush_period_s=config.flush_period_s))
         try:
-            consume(inbox, writer, lambda: node.should_stop, node.heartbeat)
-            settle(inbox, writer)
+            consume(writer, node.stop_event)
+            settle(writer.collect)
         finally:
-            subscriber.undeclare()
-            drain(inbox, writer)  # what arrived before the subscriber closed
+            writer.collect()
+            writer.sources = {}  # the channels go with their subscribers
+            for subscriber in subscribers.values():
+                subscriber.undeclare()
             writer.close()
-            log.info("recording closed", extra=kv(output=str(output), messages=sum(stats.logged.values()),
-                                                 rejected=stats.rejected, max_queue=stats.max_queue))
+            flush_ms = sorted(1e3 * s for s in stats.flush_s) or [0.0]
+            log.info("recording closed", extra=kv(
+                output=str(output), messages=sum(stats.logged.values()), rejected=stats.rejected,
+                max_pending=stats.max_pending, unknown_keys=stats.unknown.count, flushes=len(stats.flush_s),
+                flush_ms_median=round(flush_ms[len(flush_ms) // 2], 2),
+                flush_ms_p99=round(flush_ms[min(len(flush_ms) - 1, int(0.99 * len(flush_ms)))], 2)))
     return 0

@@ -2,11 +2,10 @@
 
 - ``MIMALLOC_PURGE_DELAY=0``: Rerun's native code allocates with mimalloc, which by default
   keeps freed pages for reuse. Baxter's meshes (~30 MB) pass through the SDK once (encoded,
-  compressed, written) and then stayed resident: ~90 MB RSS measured. With a purge delay of
+  compressed, written; with ``robot_model = "primitives"`` the URDF loader still reads them
+  before they are dropped) and then stayed resident: ~90 MB RSS measured. With a purge delay of
   0 ms mimalloc returns freed pages at once: the URDF's lasting cost falls to ~13 MB.
-  Together with the footer-less file it cost ~12 % of the writer's throughput in
-  `tests/bench/test_bench_recorder.py` (1 692 against 1 929 msg/s under load), still 1.7× the
-  stack's ~970 msg/s.
+  (Measured with the earlier one-entity-per-number recorder: ~12 % of its write throughput.)
 - ``RUST_LOG``: the recorder writes its file without Rerun's footer on purpose (see
   `writer`); Rerun's file sink warns about that once at start-up. Silenced for that one module
   only; every other Rerun warning still shows.

@@ -6,7 +6,10 @@
 - the motion goal: an arrow ``world/motion/goal_arrow`` from the tool to each new Cartesian
   goal;
 - the release: a marker ``world/release`` where the tool was when the gripper released, and
-  the grip force at release as a point series ``signals/release_grip_force_n``.
+  the grip force at release as a point series ``signals/release_grip_force_n``;
+- the event log ``events``: an event is logged when it changed (`EventLog`).
+
+`ReviewState` must see its messages in time order across keys (the writer merges them by stamp).
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from typing import Any
 import rerun as rr
 
 from bus_schema import messages as m
-from services.recorder.core import Vec3
+from services.recorder.core import Vec3, event_is_warning, event_key, event_text
 
 
 @dataclass
@@ -82,3 +85,31 @@ class ReviewState:
         self.tool_path.changed = False
         strips = [self.tool_path.points] if len(self.tool_path.points) >= 2 else []
         return ("world/tool_path", rr.LineStrips3D(strips, radii=0.007, colors=[(60, 120, 255)]))
+
+
+@dataclass
+class EventLog:
+    """Lines of the event log (``events``): an event message is logged when its `event_key`
+    changed since the last message of its key (stops and releases: every one)."""
+
+    last_key: dict[str, tuple] = field(default_factory=dict)
+
+    def rows(self, suffix: str, msgs: list[m.Message]) -> tuple[list[int], list[str], list[str]]:
+        """(message indices, texts, levels) of the lines a batch of `suffix`'s messages adds."""
+        rows: list[int] = []
+        texts: list[str] = []
+        levels: list[str] = []
+        last = self.last_key.get(suffix)
+        for i, msg in enumerate(msgs):
+            key = event_key(msg)
+            if key is None or key == last:
+                continue
+            last = key
+            text = event_text(msg)
+            if text:
+                rows.append(i)
+                texts.append(text)
+                levels.append(rr.TextLogLevel.WARN if event_is_warning(msg) else rr.TextLogLevel.INFO)
+        if last is not None:
+            self.last_key[suffix] = last
+        return rows, texts, levels

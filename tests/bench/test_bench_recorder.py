@@ -1,24 +1,31 @@
-"""Recorder throughput and queue depth at the stack's full rates (DESIGN §9: no dropped messages).
+"""Recorder cost at the idle stack's bus rates: CPU, flush times and recording size, before vs after.
 
-Two writers with the same entities, measured in the same run on the same payloads:
-- batched (the product): scalars and points sent as Arrow columns, joint transforms with
-  `send_columns`, every 100 ms;
-- baseline: one `rr.log` per entity per message (what the recorder did before).
+The stream (`tests.unit.recorder.stream.idle_stream`): every key at the rates measured on an
+idle `handover-up` (≈ 1 050 messages/s: heartbeats 156/s; joint state, joint command, wrist
+wrench, object motion, sim truth 100/s; gripper command 130/s, state 70/s; skeleton, depth,
+Kinect truth, human 30/s; motion status 50/s; supervisor 10/s; transfer 5/s), real bus messages
+with every float varying, depth 320 × 240 (150 kB each, 4.6 MB/s).
 
-Workload: one pre-encoded payload per message of every bus key at its nominal rate (event keys
-at 10 Hz, depth 320×240 at 30 Hz), ≈ 1 000 messages/s; a second mix with the optical sensor at
-1 kHz. Measured:
-- sustained messages/s: the whole workload queued at once, time until it is written;
-- queue depth: a producer thread queues the messages at their real rate for a few seconds
-  (like the Zenoh callback), the recorder's own loop (`node.consume`) drains it; the queue's
-  depth is sampled at every message handled.
+Two recorders, measured in the same run on the same stream:
+- before: the recorder of commit `BASELINE_REV` (its code extracted with `git archive`; its own
+  defaults: subscribes to ``<prefix>/**`` so depth reaches it, one depth image in 3, Baxter's
+  meshes, a write and flush every 0.1 s);
+- after: this recorder with its defaults (depth not subscribed, primitive robot model, a write
+  and flush every 1 s).
 
-Memory (DESIGN §9: ≤ 300 MB RSS), `test_recorder_rss_*`: a subprocess builds the recorder's
-writer (Baxter's URDF included), feeds it `RSS_DATA_S` seconds of the full-rate workload (as
-fast as it can, a batch every 0.1 s of data) and closes the file, while a thread samples its
-RSS every 5 ms. Two variants in the same run:
-- product: the recorder as it is (footer-less file, mimalloc returns freed pages);
-- baseline: the previous settings (Rerun's footer written, mimalloc defaults).
+`test_recorder_process_cpu_before_after`: each recorder runs as its own process on a loopback
+bus; this process publishes the stream at its real times for `STREAM_S` s (depth included: the
+stack's Kinect publishes it whether anyone records it or not) and samples the recorder's CPU
+time (psutil, user + system, all its threads) and RSS once a second. Reported: cores (CPU s per
+s) per 1 s sample, median and p99; the recording's size per second of the recorder's run (start
+to exit); the flush times from its closing line (after only); RSS after start-up and its
+largest sample (DESIGN §9: ≤ 300 MB).
+
+`test_recorder_writer_replay_before_after`: the writer alone, in a fresh interpreter per
+variant, fed the same stream as fast as it can (no bus), a write every flush period of stream
+time: CPU s per s of stream (time.process_time, all threads), messages per wall second, each
+write-and-flush's duration (median, p99) and bytes per second of stream.
+
 Run: python -m pytest tests/bench/test_bench_recorder.py -m bench -s
 """
 
@@ -26,236 +33,209 @@ from __future__ import annotations
 
 import json
 import os
-import queue
+import re
+import signal
 import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
-import msgspec
 import numpy as np
+import psutil
 import pytest
-import rerun as rr
 
-from bus_schema import TOPICS, encode_for, messages as m, topics
-from services.recorder.columns import TIMELINE_RECEIVE, TIMELINE_STAMP
-from services.recorder.core import POINT_STYLES, event_key, message_rows
-from services.recorder.node import consume, drain
-from services.recorder.writer import RecordingWriter
-from tests.bench._report import save, summarize, table
-from tests.samples import SAMPLES
+from bus_schema import TOPICS
+from services.runtime.testing import wait_alive, wait_until
+from tests.bench._report import save, table
+from tests.unit.recorder.stream import IDLE_RATES_HZ, idle_stream
 
 pytestmark = pytest.mark.bench
-PREFIX = "handover/v1"
-TICK_S = 0.01
-PACED_S = 3.0
 
+ROOT = Path(__file__).resolve().parents[2]
+#: The last commit with the previous recorder (override: RECORDER_BASELINE_REV).
+BASELINE_REV = os.environ.get("RECORDER_BASELINE_REV", "bddf4e6")
+STREAM_S = 15.0
+REPLAY_S = 20.0
 
-class PerMessageWriter(RecordingWriter):
-    """Baseline: the same entities, each logged with its own `rr.log` call per message."""
-
-    def handle(self, key: str, payload: bytes, receive_ns: int) -> None:
-        from bus_schema import decode, topic_for_key
-
-        topic = topic_for_key(key, self.prefix)
-        msg = decode(topic, payload)
-        self.stats.logged[topic.suffix] = self.stats.logged.get(topic.suffix, 0) + 1
-        ekey = event_key(msg)
-        fresh = ekey is not None and self._last_event.get(topic.suffix) != ekey
-        if fresh:
-            self._last_event[topic.suffix] = ekey
-        rows = message_rows(topic, msg, log_event_text=fresh)
-        if isinstance(msg, m.DepthImage):
-            self._depth_seen += 1
-            if (self._depth_seen - 1) % self.depth_every:
-                rows.logs = [(e, a) for e, a in rows.logs if e != "camera/depth"]
-        self.rec.set_time(TIMELINE_STAMP, timestamp=np.datetime64(msg.stamp_ns, "ns"))
-        self.rec.set_time(TIMELINE_RECEIVE, timestamp=np.datetime64(receive_ns, "ns"))
-        for entity, value in rows.scalars:
-            self.rec.log(entity, rr.Scalars(value))
-        for entity, xyz in rows.points:
-            self.rec.log(entity, rr.Points3D([xyz], radii=POINT_STYLES[entity].radius_m))
-        for entity, archetype in rows.logs + self._review.on_message(msg):
-            self.rec.log(entity, archetype)
-        if self._urdf is not None and isinstance(msg, m.JointState):
-            for name, q in zip(msg.names, msg.position_rad, strict=False):
-                joint = self._urdf.joints.get(name)
-                if joint is not None:
-                    self.rec.log("transforms", joint.compute_transform(q, clamp=True))
-
-
-def _sample(topic) -> m.Message:
-    if topic is topics.DEPTH:
-        return msgspec.structs.replace(SAMPLES[topic.suffix], width=320, height=240,
-                                       depth_mm=np.full(320 * 240, 1500, "<u2").tobytes())
-    return SAMPLES[topic.suffix]
-
-
-def workload(seconds: float, object_motion_hz: float) -> list[tuple[float, str, bytes]]:
-    """(send time offset s, key, payload) for every message of `seconds` of the full stack."""
-    rates = {t.suffix: (t.nominal_rate_hz or 10.0) for t in TOPICS} | {topics.OBJECT_MOTION.suffix: object_motion_hz}
-    out: list[tuple[float, str, bytes]] = []
-    owed = dict.fromkeys(rates, 0.0)
-    t0_ns = time.time_ns()
-    for tick in range(int(round(seconds / TICK_S))):
-        for topic in TOPICS:
-            owed[topic.suffix] += rates[topic.suffix] * TICK_S
-            while owed[topic.suffix] >= 1.0:
-                owed[topic.suffix] -= 1.0
-                offset = tick * TICK_S
-                msg = msgspec.structs.replace(_sample(topic), seq=len(out), stamp_ns=t0_ns + int(offset * 1e9) + len(out))
-                out.append((offset, topic.key(PREFIX), encode_for(topic, msg)))
-    return out
-
-
-def _sustained(writer_type, messages, path) -> float:
-    writer = writer_type(path, PREFIX)
-    inbox: queue.SimpleQueue = queue.SimpleQueue()
-    for _, key, payload in messages:
-        inbox.put((key, payload, time.time_ns()))
-    t0 = time.perf_counter()
-    drain(inbox, writer)
-    writer.close()
-    return len(messages) / (time.perf_counter() - t0)
-
-
-def _paced(writer_type, messages, path) -> tuple[list[int], int]:
-    """Queue depths seen while a producer thread queues `messages` at their real times."""
-    writer = writer_type(path, PREFIX)
-    inbox: queue.SimpleQueue = queue.SimpleQueue()
-    depths: list[int] = []
-    done = threading.Event()
-    handle = writer.handle
-
-    def sampled(key, payload, receive_ns):
-        depths.append(inbox.qsize())
-        handle(key, payload, receive_ns)
-
-    writer.handle = sampled  # type: ignore[method-assign]
-
-    def produce():
-        t0 = time.monotonic()
-        for offset, key, payload in messages:
-            delay = t0 + offset - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-            inbox.put((key, payload, time.time_ns()))
-        done.set()
-
-    producer = threading.Thread(target=produce)
-    producer.start()
-    consume(inbox, writer, lambda: done.is_set() and inbox.qsize() == 0)
-    producer.join()
-    drain(inbox, writer)
-    writer.close()
-    return depths, sum(writer.stats.logged.values())
-
-
-def test_recorder_throughput_and_queue_depth(tmp_path):
-    results, rows = {}, []
-    for label, obj_hz in (("full rates (optical 100 Hz)", 100.0), ("optical sensor at 1 kHz", 1000.0)):
-        msgs = workload(PACED_S, obj_hz)
-        rate = len(msgs) / PACED_S
-        entry = {"offered_msgs_per_s": rate}
-        for name, writer_type in (("batched", RecordingWriter), ("per-message rr.log", PerMessageWriter)):
-            sustained = _sustained(writer_type, msgs, tmp_path / f"s-{name[:5]}-{obj_hz:.0f}.rrd")
-            depths, logged = _paced(writer_type, msgs, tmp_path / f"p-{name[:5]}-{obj_hz:.0f}.rrd")
-            assert logged == len(msgs)
-            d = np.asarray(depths, dtype=float)
-            entry[name] = {"sustained_msgs_per_s": sustained, "queue_median": float(np.median(d)),
-                           "queue_p99": float(np.percentile(d, 99)), "queue_max": float(d.max())}
-            rows.append((label, name, f"{rate:.0f}", f"{sustained:.0f}", f"{np.median(d):.0f}",
-                         f"{np.percentile(d, 99):.0f}", f"{d.max():.0f}"))
-        entry["ratio_sustained_batched_over_baseline"] = (entry["batched"]["sustained_msgs_per_s"]
-                                                         / entry["per-message rr.log"]["sustained_msgs_per_s"])
-        results[label] = entry
-    print("\nrecorder: sustained throughput and queue depth (messages)")
-    print(table(rows, ("workload", "writer", "offered msg/s", "sustained msg/s", "queue median",
-                       "queue p99", "queue max")))
-    for label, entry in results.items():
-        print(f"{label}: batched sustains {entry['ratio_sustained_batched_over_baseline']:.1f}x the baseline")
-    save("recorder", results)
-    full = results["full rates (optical 100 Hz)"]
-    assert full["batched"]["sustained_msgs_per_s"] > full["offered_msgs_per_s"]
-
-
-RSS_DATA_S = 30
-TARGET_RSS_MB = 300.0
-
-#: Runs in a fresh interpreter: argv = output .rrd, seconds of data, "product" | "baseline".
-_RSS_SCRIPT = r"""
-import json, sys, threading, time
-import psutil
-out, seconds, variant = sys.argv[1], int(sys.argv[2]), sys.argv[3]
-proc = psutil.Process()
-peak = [0]
-def sample():
-    while True:
-        peak[0] = max(peak[0], proc.memory_info().rss)
-        time.sleep(0.005)
-threading.Thread(target=sample, daemon=True).start()
-if variant == "baseline":
-    import rerun as rr  # before the writer: its allocator settings come too late to apply
-    save = rr.RecordingStream.save
-    rr.RecordingStream.save = lambda self, path, **kw: save(self, path)  # footer written (the default)
-from pathlib import Path
-from services.recorder.writer import RecordingWriter
-from tests.bench.test_bench_recorder import PREFIX, workload
-mb = lambda b: b / 1e6
-writer = RecordingWriter(Path(out), PREFIX)
-after_init = proc.memory_info().rss
-peak[0] = 0
-feed_s = 0.0
-for _ in range(seconds):
-    messages = workload(1.0, 100.0)
-    t_feed = time.perf_counter()
-    for i, (_, key, payload) in enumerate(messages):
-        writer.handle(key, payload, time.time_ns())
-        if i % max(1, len(messages) // 10) == 0:
-            writer.pump(force=True)
-    feed_s += time.perf_counter() - t_feed
-before_close = proc.memory_info().rss
-feed_peak = peak[0]
-peak[0] = 0
-t0 = time.perf_counter()
-writer.close()
-close_s = time.perf_counter() - t0
-time.sleep(0.05)
-close_peak = max(peak[0], proc.memory_info().rss)
-print(json.dumps({"after_init_mb": mb(after_init), "feed_peak_mb": mb(feed_peak), "before_close_mb": mb(before_close),
-                  "close_peak_mb": mb(close_peak), "peak_mb": mb(max(feed_peak, close_peak, after_init)),
-                  "close_s": close_s, "messages": sum(writer.stats.logged.values()),
-                  "msgs_per_s": sum(writer.stats.logged.values()) / feed_s}))
+#: Runs the recorder CLI with `services.recorder` taken from argv[1] (the baseline's code).
+_BASELINE_MAIN = r"""
+import sys
+import services
+services.__path__.insert(0, sys.argv[1])
+from services.recorder.cli import main
+raise SystemExit(main(sys.argv[2:]))
 """
 
 
-def _rss_run(variant: str, path) -> dict:
-    env = {k: v for k, v in os.environ.items() if k not in ("MIMALLOC_PURGE_DELAY", "RUST_LOG")}
-    done = subprocess.run([sys.executable, "-c", _RSS_SCRIPT, str(path), str(RSS_DATA_S), variant],
-                          capture_output=True, text=True, env=env, timeout=600, check=False)
-    assert done.returncode == 0, done.stderr[-3000:]
-    result = json.loads(done.stdout.strip().splitlines()[-1])
-    result["file_mb"] = path.stat().st_size / 1e6
-    return result
+@pytest.fixture(scope="module")
+def baseline_dir(tmp_path_factory) -> Path:
+    """The baseline recorder's code (`git archive BASELINE_REV services/recorder`)."""
+    out = tmp_path_factory.mktemp("baseline")
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", BASELINE_REV, "services/recorder"],
+                             capture_output=True, check=False)
+    if archive.returncode != 0:
+        pytest.skip(f"baseline {BASELINE_REV} not available: {archive.stderr.decode()[:200]}")
+    subprocess.run(["tar", "-x", "-C", str(out)], input=archive.stdout, check=True)
+    return out / "services"
 
 
-def test_recorder_rss_product_vs_previous_settings(tmp_path):
-    from services.recorder.readback import entity_row_counts
+def _baseline_profile(tmp: Path) -> Path:
+    """deploy/sim.toml with the recorder table the baseline reads (its own defaults)."""
+    text = (ROOT / "deploy" / "sim.toml").read_text()
+    text = re.sub(r"\[services\.recorder\.config\]\n(?:[^\n\[]*\n)*?\n",
+                  "[services.recorder.config]\nurdf = true\ndepth_every = 3\n\n", text, count=1)
+    path = tmp / "baseline_sim.toml"
+    path.write_text(text)
+    return path
 
-    results = {variant: _rss_run(variant, tmp_path / f"{variant}.rrd") for variant in ("product", "baseline")}
-    rows = [(variant, f"{r['after_init_mb']:.0f}", f"{r['before_close_mb']:.0f}", f"{r['feed_peak_mb']:.0f}",
-             f"{r['close_peak_mb']:.0f}", f"{r['peak_mb']:.0f}", f"{r['close_s']:.2f}", f"{r['file_mb']:.0f}",
-             f"{r['msgs_per_s']:.0f}")
-            for variant, r in results.items()]
-    print(f"\nrecorder RSS, MB: URDF + {RSS_DATA_S} s of data at the stack's full rates (target ≤ {TARGET_RSS_MB:.0f})")
-    print(table(rows, ("variant", "after start", "before close", "peak while writing", "peak at close", "peak",
-                       "close s", "file MB", "written msg/s")))
-    product, baseline = results["product"], results["baseline"]
-    results["ratio_peak_product_over_baseline"] = product["peak_mb"] / baseline["peak_mb"]
-    print(f"peak RSS: product {product['peak_mb']:.0f} MB = {results['ratio_peak_product_over_baseline']:.2f}x "
-          f"the previous settings ({baseline['peak_mb']:.0f} MB)")
-    save("recorder_rss", results)
-    # Same data in both files: every message written (the footer only indexes it).
-    assert product["messages"] == baseline["messages"] > RSS_DATA_S * 900
-    counts = entity_row_counts(tmp_path / "product.rrd", include_static=False)
-    assert counts == entity_row_counts(tmp_path / "baseline.rrd", include_static=False)
+
+def _publish(session, prefix: str, stream) -> None:
+    pubs = {t.key(prefix): session.declare_publisher(t.key(prefix)) for t in TOPICS}
+    t0 = time.monotonic()
+    for offset_s, key, payload in stream:
+        delay = t0 + offset_s - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        pubs[key].put(payload)
+    for pub in pubs.values():
+        pub.undeclare()
+
+
+def _run_process(variant: str, cmd: list[str], profile, router, make_node, out: Path, stream) -> dict:
+    log_path = out.with_suffix(".log")
+    with open(log_path, "w") as log_file:
+        t_start = time.monotonic()
+        proc = subprocess.Popen(cmd, stdout=log_file, stderr=subprocess.STDOUT,
+                                env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    try:
+        wait_alive(router, profile, {"recorder"}, timeout_s=30.0)
+        assert wait_until(lambda: "recording output=" in log_path.read_text(), 60.0), log_path.read_text()
+        node = make_node(f"bench-{variant}")
+        time.sleep(1.0)  # start-up work done
+        ps = psutil.Process(proc.pid)
+        samples: list[float] = []
+        done = threading.Event()
+
+        rss: list[int] = [ps.memory_info().rss]
+
+        def sample() -> None:
+            last_t, last_cpu = time.monotonic(), sum(ps.cpu_times()[:2])
+            while not done.wait(1.0):
+                t, cpu = time.monotonic(), sum(ps.cpu_times()[:2])
+                samples.append((cpu - last_cpu) / (t - last_t))
+                rss.append(ps.memory_info().rss)
+                last_t, last_cpu = t, cpu
+
+        sampler = threading.Thread(target=sample)
+        sampler.start()
+        _publish(node.session, profile.prefix, stream)
+        done.set()
+        sampler.join()
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(60) == 0, log_path.read_text()[-3000:]
+        run_s = time.monotonic() - t_start
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    text = log_path.read_text()
+    flush = re.search(r"flush_ms_median=([\d.]+) flush_ms_p99=([\d.]+)", text)
+    cores = np.asarray(samples[1:])  # the first second includes the stream's start
+    return {"cores_median": float(np.median(cores)), "cores_p99": float(np.percentile(cores, 99)),
+            "cores_mean": float(cores.mean()), "samples": len(cores), "file_mb": out.stat().st_size / 1e6,
+            "run_s": run_s, "mb_per_s_of_run": out.stat().st_size / 1e6 / run_s,
+            "rss_after_start_mb": rss[0] / 1e6, "rss_max_mb": max(rss) / 1e6,
+            "flush_ms_median": float(flush[1]) if flush else None, "flush_ms_p99": float(flush[2]) if flush else None}
+
+
+def test_recorder_process_cpu_before_after(bus, make_node, tmp_path, baseline_dir):
+    profile, router = bus
+    stream = idle_stream(STREAM_S, t0_ns=time.time_ns())
+    base_args = ["--endpoint", profile.endpoint, "--prefix", profile.prefix]
+    variants = {
+        "before": [sys.executable, "-c", _BASELINE_MAIN, str(baseline_dir), "--profile",
+                   str(_baseline_profile(tmp_path)), *base_args, "--output", str(tmp_path / "before.rrd")],
+        "after": [sys.executable, "-m", "services.recorder", "--profile", "sim", *base_args,
+                  "--output", str(tmp_path / "after.rrd")],
+    }
+    results = {name: _run_process(name, cmd, profile, router, make_node, tmp_path / f"{name}.rrd", stream)
+               for name, cmd in variants.items()}
+    before, after = results["before"], results["after"]
+    results["ratio_cores_median_after_over_before"] = after["cores_median"] / before["cores_median"]
+    results["ratio_mb_per_s_after_over_before"] = after["mb_per_s_of_run"] / before["mb_per_s_of_run"]
+    rows = [(name, f"{r['cores_median']:.3f}", f"{r['cores_p99']:.3f}", f"{r['file_mb']:.1f}", f"{r['run_s']:.1f}",
+             f"{r['mb_per_s_of_run']:.3f}", "–" if r["flush_ms_median"] is None else f"{r['flush_ms_median']:.1f}",
+             "–" if r["flush_ms_p99"] is None else f"{r['flush_ms_p99']:.1f}", f"{r['rss_after_start_mb']:.0f}",
+             f"{r['rss_max_mb']:.0f}")
+            for name, r in results.items() if isinstance(r, dict)]
+    print(f"\nrecorder process at the idle bus rates ({sum(IDLE_RATES_HZ.values()):.0f} msg/s, {STREAM_S:.0f} s)")
+    print(table(rows, ("recorder", "cores median", "cores p99", "file MB", "run s", "MB per s of run",
+                       "flush ms median", "flush ms p99", "RSS after start MB", "RSS max MB")))
+    print(f"after/before: cores {results['ratio_cores_median_after_over_before']:.2f}x, "
+          f"MB/s {results['ratio_mb_per_s_after_over_before']:.3f}x")
+    save("recorder_process", results)
+    assert after["mb_per_s_of_run"] < 0.5
+    assert after["cores_median"] < before["cores_median"]
+    assert after["rss_max_mb"] < 300  # DESIGN §9
+
+
+#: Runs one writer on the stream in a fresh interpreter: argv = variant, baseline dir, output, seconds.
+_REPLAY = r"""
+import json, sys, time
+variant, base, out, seconds = sys.argv[1], sys.argv[2], sys.argv[3], float(sys.argv[4])
+import services
+if variant == "before":
+    services.__path__.insert(0, base)
+from pathlib import Path
+from tests.unit.recorder.stream import IDLE_RATES_HZ, idle_stream
+rates = dict(IDLE_RATES_HZ)
+if variant == "after":  # not subscribed
+    rates.pop("perception/depth")
+stream = idle_stream(seconds, rates)
+from services.recorder.writer import RecordingWriter
+if variant == "before":
+    writer, period = RecordingWriter(Path(out), "handover/v1"), 0.1
+else:
+    from services.recorder.config import RecorderConfig
+    config = RecorderConfig(depth_every=1) if variant == "after, depth_every = 1" else RecorderConfig()
+    writer, period = RecordingWriter(Path(out), "handover/v1", config), config.flush_period_s
+flush_s, next_flush = [], period
+c0, t0 = time.process_time(), time.perf_counter()
+for offset, key, payload in stream:
+    if offset >= next_flush:
+        t = time.perf_counter(); writer.pump(force=True); flush_s.append(time.perf_counter() - t)
+        next_flush += period
+    writer.handle(key, payload, time.time_ns())
+writer.close()
+cpu, wall = time.process_time() - c0, time.perf_counter() - t0
+print(json.dumps({"cpu_s_per_s": cpu / seconds, "flush_s": flush_s, "bytes": Path(out).stat().st_size,
+                  "messages": sum(writer.stats.logged.values()), "sustained_msgs_per_s": len(stream) / wall}))
+"""
+
+
+def test_recorder_writer_replay_before_after(tmp_path, baseline_dir):
+    results = {}
+    for variant in ("before", "after", "after, depth_every = 1"):
+        out = tmp_path / f"{variant.replace(' ', '').replace(',', '_').replace('=', '')}.rrd"
+        done = subprocess.run([sys.executable, "-c", _REPLAY, variant, str(baseline_dir), str(out), str(REPLAY_S)],
+                              capture_output=True, text=True, timeout=900, cwd=ROOT,
+                              env={**os.environ, "PYTHONPATH": str(ROOT)}, check=False)
+        assert done.returncode == 0, done.stderr[-3000:]
+        r = json.loads(done.stdout.strip().splitlines()[-1])
+        flush_ms = 1e3 * np.asarray(r.pop("flush_s"))
+        results[variant] = {**r, "flush_ms_median": float(np.median(flush_ms)),
+                            "flush_ms_p99": float(np.percentile(flush_ms, 99)), "flushes": int(flush_ms.size),
+                            "mb_per_s": r["bytes"] / 1e6 / REPLAY_S}
+    rows = [(v, f"{r['messages']}", f"{r['cpu_s_per_s']:.3f}", f"{r['sustained_msgs_per_s']:.0f}", f"{r['flushes']}",
+             f"{r['flush_ms_median']:.1f}", f"{r['flush_ms_p99']:.1f}", f"{r['mb_per_s']:.3f}")
+            for v, r in results.items()]
+    before, after = results["before"], results["after"]
+    results["ratio_cpu_after_over_before"] = after["cpu_s_per_s"] / before["cpu_s_per_s"]
+    print(f"\nrecorder writer replay, {REPLAY_S:.0f} s of the idle stream as fast as possible")
+    print(table(rows, ("writer", "messages", "CPU s per s of stream", "sustained msg/s", "flushes", "flush ms median",
+                       "flush ms p99", "MB per s of stream")))
+    print(f"after/before CPU: {results['ratio_cpu_after_over_before']:.2f}x")
+    save("recorder_replay", results)
+    assert after["mb_per_s"] < 0.5 and after["cpu_s_per_s"] < before["cpu_s_per_s"]
+    assert after["sustained_msgs_per_s"] > 10 * sum(IDLE_RATES_HZ.values())  # far above what the bus offers

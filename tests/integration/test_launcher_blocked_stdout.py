@@ -100,7 +100,7 @@ def _profile_with_small_queue(tmp_path: Path) -> Path:
     text = load_profile_file("sim").path.read_text()
     assert "\n[launcher]\n" in text
     path = tmp_path / "sim_small_queue.toml"
-    path.write_text(text.replace("\n[launcher]\n", f"\n[launcher]\noutput_queue_lines = {QUEUE_LINES}\n", 1))
+    path.write_text(re.sub(r"(?m)^output_queue_lines *=.*$", f"output_queue_lines = {QUEUE_LINES}", text, count=1))
     return path
 
 

@@ -4,7 +4,8 @@ Every key of the bus is published at its nominal rate from `bus_schema.topics` (
 10 Hz) with the optical sensor at 1 kHz (DESIGN's upper bound), for a few seconds, through
 publishers with congestion control BLOCK (so that the only place a message could be lost is
 the recorder). The recording read back must hold exactly one row per message sent on every
-key, at the sender's stamp, plus the review entities.
+key, at the sender's stamp, plus the review entities. Depth images are asked for (one in 3), so
+that every key of the table is flooded.
 """
 
 from __future__ import annotations
@@ -65,7 +66,7 @@ def _flood(session: zenoh.Session, prefix: str) -> dict[str, list[int]]:
 def test_flood_at_full_rates_drops_nothing(bus, make_node, tmp_path):
     profile, router = bus
     out = tmp_path / "flood.rrd"
-    with ServiceProcess("services.recorder", profile, ["--output", str(out)]) as rec:
+    with ServiceProcess("services.recorder", profile, ["--output", str(out), "--depth-every", "3"]) as rec:
         wait_alive(router, profile, {"recorder"})
         node = make_node()
         time.sleep(0.3)  # the recorder's subscription reaches the router

@@ -1,4 +1,5 @@
-"""The recorder as a real process: the file stays valid when the recorder is killed."""
+"""The recorder as a real process: the file stays valid when the recorder is killed; depth images
+reach it only when asked."""
 
 from __future__ import annotations
 
@@ -10,8 +11,9 @@ import time
 import numpy as np
 import pytest
 
-from bus_schema import topics
-from services.recorder.readback import entity_row_counts, read_scalars
+from bus_schema import TOPICS, topics
+from services.recorder.config import parse_config
+from services.recorder.readback import entity_row_counts, read_scalars, read_times
 from services.runtime.testing import ServiceProcess, wait_alive, wait_until
 
 pytestmark = pytest.mark.integration
@@ -56,6 +58,11 @@ def test_recording_complete_after_sigterm(bus, make_node, tmp_path, sig):
         assert rec.proc.wait(10) == 0, rec.log_text()
     values = read_scalars(out, "/bus/sensors/wrist_wrench/force_n/0")["/bus/sensors/wrist_wrench/force_n/0"][1]
     assert values.tolist() == [float(i) for i in range(200)]  # every message, in order
+    # receive_time: when the router got each message (its timestamp), not when the recorder
+    # took it from its queue once a second: within milliseconds of the sender's stamp.
+    stamps, receives = read_times(out, "/bus/sensors/wrist_wrench")
+    latency_s = (receives - stamps) / 1e9
+    assert len(latency_s) == 200 and latency_s.min() >= 0.0 and np.median(latency_s) < 0.05, latency_s
     assert any(e.startswith("/transforms") or "baxter" in e for e in entity_row_counts(out))
     assert _rerun_verify(out).returncode == 0
 
@@ -69,10 +76,40 @@ def test_recording_readable_after_sigkill(bus, make_node, tmp_path):
         # machine): until then messages only queue, and a kill would lose them all.
         assert wait_until(lambda: "recording output=" in rec.log_text(), 30.0), rec.log_text()
         _publish_forces(make_node(), 150)
-        time.sleep(0.6)  # several 100 ms flush periods
+        time.sleep(2 * parse_config(profile.service_config("recorder")).flush_period_s + 0.5)  # ≥ one flush
         rec.proc.send_signal(signal.SIGKILL)
         rec.proc.wait(10)
     values = read_scalars(out, "/bus/sensors/wrist_wrench/force_n/0")["/bus/sensors/wrist_wrench/force_n/0"][1]
     # Everything flushed before the kill is there and intact.
     assert np.array_equal(values, np.arange(len(values), dtype=float))
     assert len(values) == 150
+
+
+def _publish_depth(node, n):
+    pub = node.publisher(topics.DEPTH)
+    time.sleep(0.3)
+    for i in range(n):
+        pub.put(width=4, height=3, depth_mm=bytes(24), fx=285.0, fy=285.0, cx=2.0, cy=1.5)
+        time.sleep(0.02)
+
+
+@pytest.mark.parametrize("args, images", [([], 0), (["--depth-every", "1"], 20)])
+def test_depth_reaches_the_recorder_only_when_asked(bus, make_node, tmp_path, args, images):
+    profile, router = bus
+    out = tmp_path / "depth.rrd"
+    with ServiceProcess("services.recorder", profile, ["--output", str(out), "--no-urdf", *args]) as rec:
+        wait_alive(router, profile, {"recorder"})
+        assert wait_until(lambda: "recording output=" in rec.log_text(), 30.0), rec.log_text()
+        node = make_node()
+        _publish_depth(node, 20)
+        _publish_forces(node, 10)
+        time.sleep(0.3)
+        rec.proc.send_signal(signal.SIGTERM)
+        assert rec.proc.wait(30) == 0, rec.log_text()
+        log_text = rec.log_text()
+    counts = entity_row_counts(out, include_static=False)
+    assert counts.get("/bus/perception/depth", 0) == images  # default: not even subscribed
+    assert counts.get("/camera/depth", 0) == images
+    assert counts["/bus/sensors/wrist_wrench"] == 10
+    subscribed = len(TOPICS) if images else len(TOPICS) - 1
+    assert f"keys={subscribed}" in log_text and "rejected=0" in log_text

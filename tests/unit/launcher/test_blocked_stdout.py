@@ -109,7 +109,7 @@ def test_relay_never_waits_for_a_blocked_stdout_and_reports_what_it_dropped(nonb
 def test_a_bad_output_queue_bound_is_one_line_naming_the_key(tmp_path, value):
     text = load_profile_file("sim").path.read_text()
     path = tmp_path / "p.toml"
-    path.write_text(text.replace("\n[launcher]\n", f"\n[launcher]\noutput_queue_lines = {value}\n", 1))
+    path.write_text(re.sub(r"(?m)^output_queue_lines *=.*$", f"output_queue_lines = {value}", text, count=1))
     proc = subprocess.run([sys.executable, "-m", "services.launcher", "--profile", str(path), "--job", "check",
                            "--port", "auto"], capture_output=True, text=True, timeout=60, cwd=REPO)
     assert proc.returncode == 2

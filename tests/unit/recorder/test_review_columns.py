@@ -1,15 +1,15 @@
-"""Review state (tool path, release marker), column batching and the blueprint's static styles."""
+"""Review state (tool path, release marker), derived 3-D entities and the blueprint's styles and panels."""
 
 from __future__ import annotations
 
 import msgspec
 import numpy as np
-import pyarrow as pa
 
-from bus_schema import messages as m
-from services.recorder.blueprint import SIGNALS, blueprint, static_styles
-from services.recorder.columns import ColumnBuffer
-from services.recorder.core import POINT_STYLES, SKELETON_BONES, message_rows, skeleton_bones
+from bus_schema import TOPICS, messages as m, topics
+from services.recorder.blueprint import PANELS, RELEASE_SERIES, blueprint, signal_view, static_styles
+from services.recorder.bus_columns import field_plans, numeric_series
+from services.recorder.core import POINT_STYLES, SKELETON_BONES, skeleton_bones
+from services.recorder.derived import derived_columns
 from services.recorder.review import ReviewState, ToolPath
 from tests.samples import SAMPLES
 
@@ -53,36 +53,49 @@ def test_skeleton_bones_connect_known_joints_only():
     assert skeleton_bones(joints[:3]) == [[(0.0, 0.0, 0.0), (1.0, 0.0, 0.0)], [(1.0, 0.0, 0.0), (2.0, 0.0, 0.0)]]
 
 
-def test_gripper_mode_series_and_points_have_styles():
-    from bus_schema import topics
-
-    rows = message_rows(topics.GRIPPER_STATE, SAMPLES["gripper/state"])
-    assert ("signals/gripper_mode", 3.0) in rows.scalars  # "hold"
-    truth = message_rows(topics.SIM_TRUTH, SAMPLES["sim/truth"])
-    assert {e for e, _ in truth.points} <= set(POINT_STYLES)
-    assert dict(truth.points)["world/tool"] == SAMPLES["sim/truth"].tool_position_m
+def _positions(derived):
+    column = next(c for c in derived.columns if "positions" in str(c.component_descriptor())
+                  or "strips" in str(c.component_descriptor()))
+    return column.as_arrow_array().to_pylist()
 
 
-def test_column_buffer_makes_one_dense_batch_per_key_and_entity_set():
-    buf = ColumnBuffer()
-    buf.add("a", 10, 11, [("x/v", 1.0), ("x/w", 2.0)], [("p", (1.0, 2.0, 3.0))])
-    buf.add("a", 20, 21, [("x/v", 3.0), ("x/w", 4.0)], [("p", (4.0, 5.0, 6.0))])
-    buf.add("a", 30, 31, [("x/v", 5.0)], [])  # another entity set: another batch
-    buf.add("b", 40, 41, [], [])  # nothing to write
-    assert buf.pending_rows == 3
-    batches = buf.take_batches()
-    assert buf.pending_rows == 0 and buf.take_batches() == []
-    assert [b.num_rows for b in batches] == [2, 1]
-    first = batches[0]
-    assert first.column("time").cast(pa.int64()).to_pylist() == [10, 20]
-    assert first.column("receive_time").cast(pa.int64()).to_pylist() == [11, 21]
-    assert first.column("/x/w:Scalars:scalars").to_pylist() == [[2.0], [4.0]]
-    np.testing.assert_allclose(first.column("/p:Points3D:positions").to_pylist(), [[[1, 2, 3]], [[4, 5, 6]]])
-    meta = first.schema.field("/x/v:Scalars:scalars").metadata
-    assert meta[b"rerun:entity_path"] == b"/x/v" and meta[b"rerun:component_type"] == b"rerun.components.Scalar"
+def test_points_have_styles_and_the_message_positions():
+    truth = SAMPLES["sim/truth"]
+    derived = {d.entity: d for d in derived_columns(topics.SIM_TRUTH, [truth, truth])}
+    assert set(derived) <= set(POINT_STYLES)
+    np.testing.assert_allclose(_positions(derived["world/tool"]), [[truth.tool_position_m]] * 2, atol=1e-6)
 
 
-def test_static_styles_cover_every_point_entity_and_signal():
+def test_skeleton_joints_and_bones_per_frame():
+    joints = [m.SkeletonJoint(name=n, position_m=(float(i), 0.0, 0.0)) for i, n in enumerate(m.SKELETON_JOINTS)]
+    frames = [m.Skeleton(**H, tracked=True, joints=joints), m.Skeleton(**H, tracked=False),
+              m.Skeleton(**H, tracked=True, joints=joints[:3])]
+    derived = {d.entity: d for d in derived_columns(topics.SKELETON, frames)}
+    assert derived["world/skeleton/raw"].rows.tolist() == [0, 2]
+    raw = _positions(derived["world/skeleton/raw"])
+    assert [len(r) for r in raw] == [len(joints), 3]
+    bones = _positions(derived["world/skeleton/bones"])
+    assert [len(b) for b in bones] == [len(SKELETON_BONES), 2]
+    np.testing.assert_allclose(bones[1], [[[0, 0, 0], [1, 0, 0]], [[1, 0, 0], [2, 0, 0]]])
+
+
+def test_panels_plot_numeric_bus_components_that_exist():
+    """Every plotted component is a numeric field of the message type of its entity's key."""
+    by_entity = {f"bus/{t.suffix}": t for t in TOPICS}
+    for title, signals in PANELS.items():
+        for signal in signals:
+            plans = {p.component: p for p in field_plans(by_entity[signal.entity].type)}
+            assert signal.component in plans and numeric_series(plans[signal.component]), (title, signal)
+            assert len(signal.names) == len(signal.colors)
+        view = signal_view(title, signals)
+        assert view is not None
+    wrist = PANELS["Wrist force F_sx, F_sy (N)"][0]
+    assert wrist.visible == (True, True, False)  # F_sx and F_sy, not F_sz
+
+
+def test_static_styles_cover_every_point_entity_and_derived_entity():
     entities = {e for e, _ in static_styles()}
-    assert set(POINT_STYLES) <= entities and set(SIGNALS) <= entities
+    assert set(POINT_STYLES) <= entities and RELEASE_SERIES in entities
+    assert {"world/skeleton/raw", "world/skeleton/bones", "world/human/hand_correction",
+            "world/object/estimate", "signals/gripper_mode"} <= entities
     assert blueprint("baxter") is not None and blueprint(None) is not None
