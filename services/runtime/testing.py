@@ -44,6 +44,18 @@ class BusRouter:
             self.session = None
 
 
+def interrupt_then_kill(proc: subprocess.Popen, timeout_s: float = 20.0) -> int:
+    """Stop a process this test started (e.g. `handover-up`) as a user would: SIGINT, then
+    SIGKILL if it has not exited after `timeout_s`. Returns its exit code."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+    try:
+        return proc.wait(timeout_s)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        return proc.wait(5.0)
+
+
 def wait_until(predicate: Callable[[], bool], timeout_s: float, interval_s: float = 0.01) -> bool:
     """Poll `predicate` until it is true or `timeout_s` passes; return its last value."""
     deadline = time.monotonic() + timeout_s

@@ -17,7 +17,6 @@ import argparse
 import json
 import os
 import re
-import signal
 import subprocess
 import sys
 import time
@@ -25,6 +24,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import psutil
+
+from services.runtime.testing import interrupt_then_kill
 
 _ALIVE = re.compile(r"all \d+ services alive")
 _STARTED = re.compile(r"started (?P<name>\w+) \(pid (?P<pid>\d+)\)")
@@ -136,13 +137,7 @@ def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: 
         seconds = time.monotonic() - t0
         window = CpuWindow(seconds, {n: (after[n] - before[n]) / seconds for n in procs})
     finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(30)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        interrupt_then_kill(proc, 30.0)
     window.run_seconds = time.monotonic() - t_launch
     window.recording_bytes = sum(r.stat().st_size for r in tmp_dir.glob(f"handover-cpu-{job}*.rrd"))
     window.output = out_path.read_text(errors="replace")

@@ -181,11 +181,13 @@ def motion_between(joints: list[tuple[float, Any]], start_s: float, end_s: float
 
 def never_settled(joints: list[tuple[float, Any]], stop_s: float, until_s: float) -> str | None:
     """Why the arm counts as never at rest after a stop at `stop_s` (None: no evidence):
-    joint states in [stop_s + `REST_DEADLINE_S`, `until_s`) came and none of the states after
-    the stop began `REST_SAMPLES` at rest before `until_s`."""
+    joint states in [stop_s + `REST_DEADLINE_S`, `until_s`) came, one of them moving, and none
+    of the states after the stop began `REST_SAMPLES` at rest before `until_s`. Fewer than
+    `REST_SAMPLES` late states all at rest are rest (a bridge frozen through the stop that sent
+    one state, at rest, before it shut down)."""
     late = [(t, m) for t, m in joints if stop_s + REST_DEADLINE_S <= t < until_s]
-    if not late:
-        return None
+    if not late or all(_max_speed(m) < REST_SPEED_RAD_S for _t, m in late):
+        return None  # no evidence, or every late state at rest (a bridge thawed only to shut down)
     rest = first_rest_after(joints, stop_s)
     if rest is not None and rest < until_s:
         return None

@@ -96,6 +96,12 @@ def test_an_arm_that_never_comes_to_rest_after_a_stop_is_caught():
     assert judge(record([0.5] * 100)).ok
     # Slow braking that settles within the run is fine.
     assert judge(record([0.5] * 100 + [0.3] * 30 + [0.0] * 50)).ok
+    # A bridge frozen through the stop: no states, then one at rest just before shutdown.
+    frozen = record([0.5] * 100)
+    frozen.joints.append((1.9, js(0.0, 1.9)))
+    assert judge(frozen).ok, judge(frozen).violations
+    frozen.joints.append((1.95, js(0.2, 1.95)))  # ... but one moving late state is caught
+    assert any("never came to rest" in x for x in judge(frozen).violations)
 
 
 def test_a_release_stop_that_never_settles_before_the_retract_is_caught():

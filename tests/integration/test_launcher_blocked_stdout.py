@@ -42,6 +42,7 @@ import pytest
 from bus_schema import topics
 from services.runtime import ServiceNode
 from services.runtime.profile import free_tcp_port, load_profile_file
+from services.runtime.testing import interrupt_then_kill
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(60)]
 
@@ -245,13 +246,7 @@ def _run_blocked(tmp_path: Path) -> Observed:
             node.close()
         if drainer.ident is None:
             drainer.start()  # never leave the launcher waiting on the pipe at cleanup
-        if launcher.poll() is None:
-            launcher.send_signal(signal.SIGINT)
-            try:
-                launcher.wait(20.0)
-            except subprocess.TimeoutExpired:
-                launcher.kill()
-                launcher.wait(5.0)
+        interrupt_then_kill(launcher, 20.0)
         family.kill_leftovers()
         drainer.join(5.0)
         os.close(read_fd)
