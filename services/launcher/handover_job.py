@@ -26,8 +26,10 @@ from services.runtime.sched import MAX_EXCUSED_S, StarvationJudge
 SAFE_OUTCOMES = ("released", "timeout", "aborted")
 #: The supervisor publishes its state at ≥ 20 Hz; older than this, it is frozen or hung
 #: (nothing else watches the watcher): the job stops the arm itself and fails, s.
-SUPERVISOR_SILENT_S = 0.25
-#: A loop iteration this much after the previous one (it waits at most 50 ms) means the
+SUPERVISOR_SILENT_S = 0.2
+#: The job's loop wakes at least this often to judge the supervisor's freshness, s.
+WATCH_PERIOD_S = 0.02
+#: A loop iteration this much after the previous one (it waits at most 20 ms) means the
 #: launcher itself was starved: states may still wait in its socket.
 SELF_STALL_S = 0.1
 #: A supervisor quiet this long is read from /proc at each loop (to judge starvation), s.
@@ -115,7 +117,7 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
     judge = StarvationJudge() if supervisor_pid is not None else None
     excused_log_s = -math.inf
     watch = EpisodeWatch()
-    # Read at this loop's 20 Hz tick; only a summary wakes it early.
+    # Read at this loop's 50 Hz tick; only a summary wakes it early.
     states = node.subscribe(topics.SUPERVISOR_STATE, queue_size=256, wake=False)
     summaries = node.subscribe(topics.EPISODE, queue_size=64)
     truth = node.subscribe(topics.SIM_TRUTH, queue_size=1024, wake=False)
@@ -142,7 +144,7 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
 
     last_loop_s = time.monotonic()
     while True:
-        node.wait(0.05)
+        node.wait(WATCH_PERIOD_S)
         now_s = time.monotonic()
         late, last_loop_s = now_s - last_loop_s > SELF_STALL_S, now_s
         for rx in truth.drain():
