@@ -11,6 +11,8 @@ stack), unpacked with ``git archive`` into a temporary folder and run with the s
 ``HANDOVER_CPU_BASELINE_REV=`` (empty) to skip it. Results go to ``out/bench/cpu.json`` and the
 table of ``docs/performance.md`` between its ``cpu-table`` markers is regenerated.
 
+Each figure is the median of `ROUNDS` interleaved rounds (``HANDOVER_CPU_ROUNDS``, default 2).
+
 Run: ``python -m pytest tests/bench/test_bench_cpu.py -m bench -s`` (about 3 minutes; alone
 on the machine: anything else running changes the figures).
 """
@@ -18,6 +20,7 @@ on the machine: anything else running changes the figures).
 from __future__ import annotations
 
 import os
+import statistics
 import subprocess
 import tarfile
 from pathlib import Path
@@ -32,6 +35,8 @@ pytestmark = pytest.mark.bench
 REPO = Path(__file__).resolve().parents[2]
 BASELINE_REV = os.environ.get("HANDOVER_CPU_BASELINE_REV", "87e22e9")
 IDLE_S = float(os.environ.get("HANDOVER_CPU_IDLE_S", "20"))
+#: Rounds of (baseline, now), interleaved: each figure is the median over the rounds.
+ROUNDS = int(os.environ.get("HANDOVER_CPU_ROUNDS", "2"))
 IDLE_TARGET_CORES = 0.25
 EPISODE_TARGET_CORES = 0.5
 RECORDING_TARGET_B_PER_S = 0.5e6
@@ -54,6 +59,33 @@ def _measure(tmp: Path, checkout: Path | None) -> dict[str, CpuWindow]:
     episode_dir.mkdir(parents=True)
     return {"idle": run_stack(idle_dir, "none", IDLE_S, checkout=checkout),
             "episode": run_stack(episode_dir, "handover", checkout=checkout, extra_args=["--episodes", "1"])}
+
+
+def _median_window(windows: list[CpuWindow]) -> CpuWindow:
+    """Per process, the median of its cores over `windows` (and of the other figures)."""
+    names = set().union(*(w.cores for w in windows))
+    med = CpuWindow(statistics.median(w.seconds for w in windows),
+                    {n: statistics.median(w.cores[n] for w in windows if n in w.cores) for n in names})
+    med.recording_bytes = int(statistics.median(w.recording_bytes for w in windows))
+    med.run_seconds = statistics.median(w.run_seconds for w in windows)
+    med.output = windows[-1].output
+    return med
+
+
+def _measure_rounds(tmp: Path, baseline: Path | None) -> tuple[dict[str, CpuWindow], dict[str, CpuWindow] | None]:
+    """`ROUNDS` rounds of (baseline, now), interleaved; the median of each figure."""
+    runs: dict[str, list[dict[str, CpuWindow]]] = {"now": [], "before": []}
+    for k in range(ROUNDS):
+        if baseline is not None:
+            runs["before"].append(_measure(tmp / f"before{k}", baseline))
+        runs["now"].append(_measure(tmp / f"now{k}", None))
+
+    def med(label: str) -> dict[str, CpuWindow] | None:
+        if not runs[label]:
+            return None
+        return {kind: _median_window([r[kind] for r in runs[label]]) for kind in ("idle", "episode")}
+
+    return med("now"), med("before")  # type: ignore[return-value]
 
 
 def _rows(now: dict[str, CpuWindow], before: dict[str, CpuWindow] | None) -> list[tuple[str, ...]]:
@@ -79,7 +111,8 @@ def _write_doc(rows: list[tuple[str, ...]], now: dict[str, CpuWindow], before: d
              + (f"; before: {before['episode'].recording_bytes_per_s / 1e6:.3f} MB/s." if before else "."),
              f"Idle window {now['idle'].seconds:.0f} s; episode window {now['episode'].seconds:.1f} s now"
              + (f", {before['episode'].seconds:.1f} s before" if before else "") + ". "
-             + (f"Before = commit `{BASELINE_REV}`, measured in the same sitting." if before else "")]
+             + (f"Before = commit `{BASELINE_REV}`, measured in the same sitting. " if before else "")
+             + f"Each figure is the median of {ROUNDS} rounds, the two stacks interleaved."]
     text = DOC.read_text()
     head, rest = text.split(BEGIN, 1)
     _, tail = rest.split(END, 1)
@@ -87,10 +120,7 @@ def _write_doc(rows: list[tuple[str, ...]], now: dict[str, CpuWindow], before: d
 
 
 def test_stack_cpu_and_recording_rate(tmp_path: Path) -> None:
-    before = None
-    if BASELINE_REV:
-        before = _measure(tmp_path / "before", _unpack(BASELINE_REV, tmp_path))
-    now = _measure(tmp_path / "now", None)
+    now, before = _measure_rounds(tmp_path, _unpack(BASELINE_REV, tmp_path) if BASELINE_REV else None)
     rows = _rows(now, before)
     print("\n" + table(rows, ("process", "idle before", "idle now", "episode before", "episode now")))
     results = {
