@@ -1,4 +1,5 @@
-"""ServiceNode: one Zenoh session per service, typed publish/subscribe, liveliness, shutdown.
+"""ServiceNode: one Zenoh session per service, liveliness, heartbeat, shutdown; its typed
+publishers and subscriptions are in `services.runtime.pubsub`.
 
 Rules this module enforces (NOTES.md, Zenoh):
 - every session uses the profile's loopback-only config (multicast and gossip off);
@@ -18,239 +19,28 @@ import os
 import signal
 import threading
 import time
-from collections import deque
 from collections.abc import Iterator
-from dataclasses import dataclass
-from typing import Any, Generic, TypeVar
+from typing import Any
 
 import zenoh
 
-from bus_schema import MAX_PAYLOAD_BYTES, Topic, alive_key, decode, encode_for
-from bus_schema.codec import DecodeError
-from bus_schema.messages import Message
+from bus_schema import Topic, alive_key
 from bus_schema.topics import HEARTBEAT
 from services.runtime.errors import BusError
-from services.runtime.faults import FaultyPut, rules_for
+from services.runtime.faults import rules_for
 from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile, zenoh_config
-from services.runtime.stamps import SENDER_CLOCK
+from services.runtime.pubsub import Received, SubscriptionStats, TypedPublisher, TypedSubscription
 from services.runtime.starvation import LATE_WAKE_REPORT_S, LATE_WAKE_WARNING_S, WakeSampler, late_wake_report
+
+__all__ = ["HEARTBEAT_PERIOD_S", "Received", "ServiceNode", "SubscriptionStats", "TypedPublisher",
+           "TypedSubscription", "open_session"]
 
 #: Period of every service's heartbeat (`runtime/heartbeat`), s.
 HEARTBEAT_PERIOD_S = 0.05
 
 log = logging.getLogger(__name__)
-
-M = TypeVar("M", bound=Message)
-
-
-@dataclass(frozen=True)
-class Received(Generic[M]):
-    """A decoded message and its local receive time (`time.monotonic()`, s)."""
-
-    msg: M
-    rx_monotonic: float
-
-
-@dataclass
-class SubscriptionStats:
-    """Counters of one subscription.
-
-    Attributes:
-        received: payloads that arrived.
-        accepted: payloads that decoded.
-        rejected: payloads dropped because they did not decode.
-        seq_gaps: messages missed according to the publishers' sequence numbers.
-        overflowed: accepted messages dropped because the queue was full.
-    """
-
-    received: int = 0
-    accepted: int = 0
-    rejected: int = 0
-    seq_gaps: int = 0
-    overflowed: int = 0
-
-
-class TypedSubscription(Generic[M]):
-    """Decode-at-the-edge subscription to one topic.
-
-    Each payload is decoded with the topic's typed decoder; a payload that does not decode is
-    counted, logged (rate-limited) and dropped. Decoded messages go to a bounded queue read by
-    the service thread with `latest()` or `drain()`.
-
-    Two ways in, chosen by `wake`:
-    - ``wake=True``: a Zenoh callback decodes each sample on Zenoh's thread, queues it and wakes
-      the node's `wait()` (for the few keys a loop must react to at once: stops, releases).
-    - ``wake=False``: samples wait in a Zenoh ring channel (bounded, oldest dropped, no Python
-      and no GIL on Zenoh's thread) and are decoded by the reader when it calls `latest()`,
-      `drain()`, `age_s()` or `stats`. For streams a loop reads at its own tick this removes a
-      GIL hand-over per message; the receive time (`rx_monotonic`) is then the time the reader
-      took the sample in, at most one of its ticks after arrival.
-    """
-
-    def __init__(self, node: ServiceNode, topic: Topic, queue_size: int, wake: bool = True) -> None:
-        self.topic = topic
-        self.wake = wake
-        self.key = topic.key(node.profile.prefix)
-        self._stats = SubscriptionStats()
-        self._node = node
-        self._queue: deque[Received[M]] = deque(maxlen=queue_size)
-        self._latest: Received[M] | None = None
-        self._last_seq: dict[str, int] = {}
-        self._bad_log = RateLimitedLog(log, 1.0)
-        self._pump_lock = threading.Lock()
-        if wake:
-            self._subscriber = node.session.declare_subscriber(self.key, self._on_sample)
-        else:
-            self._subscriber = node.session.declare_subscriber(self.key, zenoh.handlers.RingChannel(queue_size))
-
-    # Runs on a Zenoh thread: decode, count, enqueue, notify. Nothing else.
-    def _on_sample(self, sample: zenoh.Sample) -> None:
-        if self._accept(sample, time.monotonic()):
-            self._node._notify()
-
-    def _pump(self) -> None:
-        """Take in what waits in the ring channel (``wake=False`` only; reader's thread)."""
-        if self.wake:
-            return
-        with self._pump_lock:
-            try_recv = self._subscriber.try_recv
-            while True:
-                try:
-                    sample = try_recv()
-                except Exception:  # the session closed under us
-                    return
-                if sample is None:
-                    return
-                self._accept(sample, time.monotonic())
-
-    def _accept(self, sample: zenoh.Sample, rx: float) -> bool:
-        """Decode, count and queue one sample; False when it was dropped."""
-        stats = self._stats
-        stats.received += 1
-        try:
-            size = len(sample.payload)
-            if size > MAX_PAYLOAD_BYTES:  # refused before it is copied out of Zenoh
-                raise DecodeError(f"payload of {size} bytes exceeds the {MAX_PAYLOAD_BYTES}-byte cap")
-            msg = decode(self.topic, sample.payload.to_bytes())
-        except DecodeError as exc:
-            stats.rejected += 1
-            self._bad_log.warning(
-                self.key,
-                f"dropped undecodable payload on {self.key}: {exc}",
-                rejected=stats.rejected,
-            )
-            return False
-        except Exception as exc:  # never let anything escape into Zenoh's thread
-            stats.rejected += 1
-            self._bad_log.warning(self.key, f"dropped payload on {self.key}: {exc!r}")
-            return False
-        last = self._last_seq.get(msg.source)
-        if last is not None and msg.seq > last + 1:
-            stats.seq_gaps += msg.seq - last - 1
-        self._last_seq[msg.source] = msg.seq
-        stats.accepted += 1
-        item = Received(msg, rx)
-        if len(self._queue) == self._queue.maxlen:
-            stats.overflowed += 1
-        self._queue.append(item)
-        self._latest = item
-        return True
-
-    @property
-    def stats(self) -> SubscriptionStats:
-        """Counters of this subscription (takes waiting samples in first)."""
-        self._pump()
-        return self._stats
-
-    def latest(self) -> Received[M] | None:
-        """The most recent message received so far (None before the first)."""
-        self._pump()
-        return self._latest
-
-    def drain(self) -> list[Received[M]]:
-        """All messages received since the last drain, oldest first."""
-        self._pump()
-        out = []
-        queue = self._queue
-        while queue:
-            try:
-                out.append(queue.popleft())
-            except IndexError:
-                break
-        return out
-
-    def age_s(self, now_monotonic: float | None = None) -> float:
-        """Seconds since the last accepted message (inf before the first)."""
-        self._pump()
-        if self._latest is None:
-            return float("inf")
-        now = time.monotonic() if now_monotonic is None else now_monotonic
-        return now - self._latest.rx_monotonic
-
-    def undeclare(self) -> None:
-        try:
-            self._subscriber.undeclare()
-        except Exception:  # already closed with the session
-            pass
-
-
-class TypedPublisher(Generic[M]):
-    """Publisher of one topic; fills the header (per-publisher `seq`, `stamp_ns` from the
-    process's `SENDER_CLOCK`, `source`)."""
-
-    def __init__(self, node: ServiceNode, topic: Topic) -> None:
-        self.topic = topic
-        self.key = topic.key(node.profile.prefix)
-        self._source = node.name
-        self._seq = 0
-        self._lock = threading.Lock()
-        if topic.delivery == "safety":
-            cc, prio = zenoh.CongestionControl.BLOCK, zenoh.Priority.REAL_TIME
-        else:
-            cc, prio = zenoh.CongestionControl.DROP, zenoh.Priority.DATA
-        self._publisher = node.session.declare_publisher(
-            self.key, congestion_control=cc, priority=prio
-        )
-        self._send: Any = self._publisher.put
-        rule = node.fault_rules.get(topic.suffix)
-        if rule is not None:
-            self._send = FaultyPut(self._publisher.put, rule)
-            log.warning("fault injection on %s: %s=%g", topic.suffix, rule.kind, rule.value)
-
-    def next_header(self) -> dict[str, Any]:
-        """Header fields for the next message (advances `seq`)."""
-        with self._lock:
-            seq = self._seq
-            self._seq += 1
-        return {"seq": seq, "stamp_ns": SENDER_CLOCK.now_ns(), "source": self._source}
-
-    def put(self, **fields: Any) -> M:
-        """Build a message of the topic's type from `fields` plus a fresh header; publish it.
-
-        Returns:
-            The message that was published.
-        """
-        msg = self.topic.type(**self.next_header(), **fields)
-        self._send(encode_for(self.topic, msg))
-        return msg  # type: ignore[return-value]
-
-    def put_message(self, msg: M) -> None:
-        """Publish a message built elsewhere (its header is sent as is)."""
-        self._send(encode_for(self.topic, msg))
-
-    def put_raw(self, payload: bytes) -> None:
-        """Publish raw bytes on this key (fault injection and fuzzing only)."""
-        self._send(payload)
-
-    def undeclare(self) -> None:
-        if isinstance(self._send, FaultyPut):
-            self._send.close()
-        try:
-            self._publisher.undeclare()
-        except Exception:
-            pass
 
 
 def open_session(profile: Profile, mode: str = "client", timeout_s: float = 10.0,

@@ -62,6 +62,13 @@ def _episodes_beside_hogs(episodes: int, hogs: int, seed: int) -> None:
     assert set(outcomes) == {"released"}, outcomes
     verdict = judge(rec)
     assert verdict.ok, verdict.violations
+    print(f"\n{episodes} episodes beside {hogs} hog(s): {outcomes.count('released')} released, "
+          f"0 protective stops, {_excused(rec)} silences excused as starvation")
+
+
+def _excused(rec) -> int:
+    """Lines in which a watcher excused a silence as starvation (`services.runtime.sched`)."""
+    return sum(1 for _t, line in rec.lines if "excused: starved of CPU" in line)
 
 
 def _fault_beside_hogs(kind: str, service: str, hogs: int) -> None:
@@ -74,6 +81,8 @@ def _fault_beside_hogs(kind: str, service: str, hogs: int) -> None:
     bound = KILL_DETECTION_S if kind == "kill" else FREEZE_DETECTION_S
     detected = verdict.detection_s.get(plan.label)
     assert detected is not None, f"{plan.label} not detected: {rec.exit_line}"
+    print(f"\n{plan.label} beside {hogs} hog(s): detected after {detected * 1e3:.0f} ms "
+          f"({_excused(rec)} silences excused as starvation)")
     assert detected <= bound, f"{plan.label} detected after {detected * 1e3:.0f} ms beside {hogs} hog(s)"
     assert service in rec.exit_line and rec.exit_code == 1, rec.exit_line
 
