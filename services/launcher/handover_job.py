@@ -107,13 +107,15 @@ class JobResult:
 
 def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[], str | None],
                      say: Callable[[str], None], episode_timeout_s: float = 90.0,
-                     supervisor_pid: Callable[[], int | None] | None = None) -> JobResult:
+                     supervisor_pid: Callable[[], int | None] | None = None,
+                     delivery_pids: tuple[int, ...] = ()) -> JobResult:
     """Follow `episodes` episodes (0: until aborted); print progress with `say`.
 
     `supervisor_pid` (one host): the supervisor's process id, so that a supervisor starved of
     CPU (its threads waiting on the run queue) is not called silent before
     `services.runtime.sched.MAX_EXCUSED_S`; a stopped or hung one still is at
-    `SUPERVISOR_SILENT_S`."""
+    `SUPERVISOR_SILENT_S`; nor while the processes its states pass through (`delivery_pids`:
+    the router, this one) are starved."""
     judge = StarvationJudge() if supervisor_pid is not None else None
     excused_log_s = -math.inf
     watch = EpisodeWatch()
@@ -171,9 +173,12 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
             silent_s = time.monotonic() - last_state_s if last_state_s is not None else 0.0
         pid = supervisor_pid() if judge is not None and silent_s > NOTE_AFTER_S else None
         if pid is not None:
-            judge.note(pid, time.monotonic())
+            for watched in (pid, *delivery_pids):
+                judge.note(watched, time.monotonic())
         if silent_s > SUPERVISOR_SILENT_S:
-            why = judge.excuse(pid, time.monotonic()) if pid is not None and silent_s <= MAX_EXCUSED_S else None
+            why = None
+            if pid is not None and silent_s <= MAX_EXCUSED_S:
+                why = judge.excuse(pid, time.monotonic()) or judge.excuse_path(delivery_pids, time.monotonic())
             if why is None:
                 return stopped(f"supervisor: silent: no supervisor/state for {silent_s:.3f} s; "
                                "the launcher stopped the arm")

@@ -44,6 +44,7 @@ from services.launcher.processes import Child, RouterProcess, emit, stdout_outle
 from services.runtime import LivelinessWatcher, Profile, ServiceNode, open_session
 from services.runtime.errors import BusError, ServiceError
 from services.runtime.profile import zenoh_config_dict
+from services.runtime.sched import ROUTER_PID_ENV
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
 JOBS = ("handover", "demo", "check", "none")
@@ -144,6 +145,7 @@ class Launcher:
             raise LauncherError(f"profile {profile.path} enables no service")
         self.width = max(len("launcher"), *(len(s.name) for s in self.specs))
         self.children: dict[str, Child] = {}
+        self.router_pid: int | None = None  # the watchers judge the delivery path's starvation too
         self.restarts: dict[str, int] = {s.name: 0 for s in self.specs}
         self.recording: Path | None = None
         self.stop_requested = threading.Event()
@@ -162,8 +164,9 @@ class Launcher:
 
     def _start(self, name: str) -> Child:
         spec = next(s for s in self.specs if s.name == name)
+        env = {ROUTER_PID_ENV: str(self.router_pid)} if self.router_pid else None
         child = Child(name, service_command(spec, self.profile, self._extra_args(name, self.restarts[name])),
-                      self.width, nice=spec.nice)
+                      self.width, env=env, nice=spec.nice)
         child.start()
         self.children[name] = child
         return child
@@ -245,6 +248,7 @@ class Launcher:
         router = RouterProcess(json.dumps(zenoh_config_dict(router_profile, "router")), self.width)
         try:
             router.start()
+            self.router_pid = router.pid
             session = open_session(self.profile, "client", timeout_s=5.0, user="launcher")
         except (BusError, RuntimeError) as exc:
             for s, h in previous.items():
@@ -317,6 +321,10 @@ class Launcher:
         child = self.children.get("supervisor")
         return None if child is None else child.pid
 
+    def _delivery_pids(self) -> tuple[int, ...]:
+        """Processes a supervisor state passes through to this watch: the router and this one."""
+        return tuple(pid for pid in (self.router_pid, os.getpid()) if pid)
+
     def _run_handover(self) -> int:
         from services.launcher.handover_job import run_handover_job
 
@@ -331,7 +339,8 @@ class Launcher:
             stopper.start()
             say(f"job: handover ({episodes or 'unlimited'} episode{'s' if episodes != 1 else ''})")
             result = run_handover_job(node, episodes, self._abort_reason, say, self.options.episode_timeout_s,
-                                      None if self.profile.allow_non_loopback else self._supervisor_pid)
+                                      None if self.profile.allow_non_loopback else self._supervisor_pid,
+                                      self._delivery_pids())
         self.episode_running = False
         if self.interrupted:
             return EXIT_INTERRUPTED

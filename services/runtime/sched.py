@@ -14,6 +14,10 @@ it says whether a process is stopped (``/proc/PID/stat`` state ``T``/``t``).
   on a CPU (that one runs): none of those is ever excused.
 - otherwise, or when the process is stopped, gone, or not readable: not excused.
 
+A message also crosses the router and the watcher's own receive threads: when either of them is
+starved, every service looks silent at once although none is. `excuse_path(pids, now_s)` judges
+those processes the same way (the watcher notes them whenever anyone is quiet).
+
 The caller bounds the excuse (`MAX_EXCUSED_S`: a silence longer than that is a fault whatever
 the reason) and uses it only when every watched process runs on this host.
 """
@@ -23,6 +27,8 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+#: Environment variable through which the launcher gives its children the router's pid.
+ROUTER_PID_ENV = "HANDOVER_ROUTER_PID"
 #: Shortest window over which run-queue wait is judged, s.
 WINDOW_S = 0.08
 #: A reading older than this starts a new window instead of closing one (an earlier quiet
@@ -142,6 +148,24 @@ class StarvationJudge:
             return None
         return verdict[1]
 
+    def excuse_path(self, pids: tuple[int, ...], now_s: float) -> str | None:
+        """Why the delivery path (the router, the watcher itself) was starved, or None."""
+        for pid in pids:
+            why = self.excuse(pid, now_s)
+            if why is not None:
+                return f"the delivery path was starved: pid {pid}: {why}"
+        return None
+
+
+def delivery_pids() -> tuple[int, ...]:
+    """This process and the stack's router (from `ROUTER_PID_ENV`, set by the launcher): the
+    processes a message to this watcher passes through on one host."""
+    pids = [os.getpid()]
+    router = os.environ.get(ROUTER_PID_ENV, "")
+    if router.isdigit() and int(router) > 0:
+        pids.append(int(router))
+    return tuple(pids)
+
 
 def runs_a_service(pid: int, proc_root: str = "/proc") -> bool:
     """True when process `pid` on this host runs one of the stack's modules
@@ -159,9 +183,11 @@ class ServiceStarvation:
     `Excuser`): each service's process id comes with its heartbeats (`Heartbeat.pid`) and is
     used once `/proc/PID/cmdline` shows a module of the stack."""
 
-    def __init__(self, judge: StarvationJudge | None = None, check_pid=runs_a_service) -> None:
+    def __init__(self, judge: StarvationJudge | None = None, check_pid=runs_a_service,
+                 path_pids: tuple[int, ...] = ()) -> None:
         self.judge = judge or StarvationJudge()
         self._check_pid = check_pid
+        self.path_pids = path_pids
         self._pids: dict[str, int] = {}
         self._refused: set[int] = set()
 
@@ -181,7 +207,10 @@ class ServiceStarvation:
         pid = self._pids.get(service)
         if pid is not None:
             self.judge.note(pid, now_s)
+        for path_pid in self.path_pids:
+            self.judge.note(path_pid, now_s)
 
     def excuse(self, service: str, now_s: float) -> str | None:
         pid = self._pids.get(service)
-        return None if pid is None else self.judge.excuse(pid, now_s)
+        why = None if pid is None else self.judge.excuse(pid, now_s)
+        return why or self.judge.excuse_path(self.path_pids, now_s)

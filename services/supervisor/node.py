@@ -16,7 +16,7 @@ from bus_schema import topics
 from robot_sim.baxter import RIGHT_ARM_HOME_RAD
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.runtime.liveliness import LivelinessWatcher
-from services.runtime.sched import MAX_EXCUSED_S, ServiceStarvation
+from services.runtime.sched import MAX_EXCUSED_S, ServiceStarvation, delivery_pids
 from services.supervisor.config import SupervisorConfig
 from services.supervisor.core import Actions, Sequencer, Snapshot, TargetFilter
 from services.supervisor.watchdog import Watchdog
@@ -53,7 +53,7 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
     last episode ended and the launcher stops it). Returns the exit code."""
     services = watched_services(profile)
     # One host (no other machine on the bus): a silence can be told apart as starvation.
-    starvation = None if profile.allow_non_loopback else ServiceStarvation()
+    starvation = None if profile.allow_non_loopback else ServiceStarvation(path_pids=delivery_pids())
     watchdog = Watchdog(services, config.heartbeat_timeout_s, config.stream_timeout_s,
                         {s: o for s, o in WATCHED_STREAMS.items() if o in services},
                         {name: config.report_heartbeat_timeout_s for name in services

@@ -77,7 +77,7 @@ def _fault_beside_hogs(kind: str, service: str, hogs: int) -> None:
         rec = run_with_faults([plan], receiver="absent", seed=3)
     verdict = judge(rec)
     assert verdict.ok, f"{verdict.violations}\n{_tail(rec)}"
-    assert rec.injections, f"the fault was never injected: {rec.exit_line}"
+    assert rec.injections, f"the fault was never injected: {rec.exit_line}\n{_tail(rec, 60)}"
     bound = KILL_DETECTION_S if kind == "kill" else FREEZE_DETECTION_S
     detected = verdict.detection_s.get(plan.label)
     assert detected is not None, f"{plan.label} not detected: {rec.exit_line}"

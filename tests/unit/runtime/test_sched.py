@@ -11,8 +11,8 @@ import time
 
 import pytest
 
-from services.runtime.sched import (MAX_EXCUSED_S, SchedSample, ServiceStarvation, StarvationJudge, parse_state,
-                                    read_sched, runs_a_service, starved)
+from services.runtime.sched import (MAX_EXCUSED_S, SchedSample, ServiceStarvation, StarvationJudge, delivery_pids,
+                                    parse_state, read_sched, runs_a_service, starved)
 from services.runtime.testing import wait_until
 from services.supervisor.watchdog import Watchdog
 
@@ -159,3 +159,20 @@ def test_a_real_starved_process_is_excused_and_a_stopped_one_is_not():
             proc.send_signal(signal.SIGCONT)
             proc.kill()
             proc.wait(5.0)
+
+
+def test_a_starved_delivery_path_excuses_every_service_but_a_running_one_excuses_none():
+    fake = FakeReader()
+    adapter = ServiceStarvation(StarvationJudge(fake), check_pid=lambda pid: True, path_pids=(90, 91))
+    adapter.heard("bridge", 11)
+    for pid in (11, 90, 91):
+        fake.samples[pid] = SchedSample(0.0, 0.0, "S")
+    adapter.note("bridge", 1.0)
+    fake.samples[91] = SchedSample(0.0, 0.06, "R")  # the router waited 60 of 100 ms for a CPU
+    adapter.note("bridge", 1.1)
+    why = adapter.excuse("bridge", 1.1)
+    assert why is not None and "delivery path" in why and "pid 91" in why
+    fake.samples[91] = SchedSample(0.0, 0.065, "S")  # the router ran again: 5 of 100 ms
+    adapter.note("bridge", 1.2)
+    assert adapter.excuse("bridge", 1.2) is None
+    assert delivery_pids()[0] == os.getpid()
