@@ -148,6 +148,13 @@ class StarvationJudge:
             return None
         return verdict[1]
 
+    def explain(self, pid: int) -> str:
+        """The last judgement of `pid`, for the line that reports a silence not excused."""
+        verdict = self._verdict.get(pid)
+        if verdict is None:
+            return "no window judged yet"
+        return ("starved: " if verdict[0] else "not starved: ") + verdict[1]
+
     def excuse_path(self, pids: tuple[int, ...], now_s: float) -> str | None:
         """Why the delivery path (the router, the watcher itself) was starved, or None."""
         for pid in pids:
@@ -214,3 +221,11 @@ class ServiceStarvation:
         pid = self._pids.get(service)
         why = None if pid is None else self.judge.excuse(pid, now_s)
         return why or self.judge.excuse_path(self.path_pids, now_s)
+
+    def explain(self, service: str) -> str:
+        """Why a silence of `service` was not excused: the last judgement of its process and of
+        the delivery path (one line, for the fault's log line)."""
+        pid = self._pids.get(service)
+        own = "pid unknown" if pid is None else f"pid {pid} {self.judge.explain(pid)}"
+        path = "; ".join(f"path pid {p} {self.judge.explain(p)}" for p in self.path_pids)
+        return f"{own}; {path}" if path else own

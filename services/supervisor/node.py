@@ -166,9 +166,12 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                     excuse_log.info(service, f"{service}: {why}")
                 for fault in faults:
                     critical = config.watch.get(fault.service, "critical") == "critical"
+                    starved = (starvation.explain(fault.service)
+                               if starvation is not None and fault.what == "silent" else "n/a")
                     log.warning("service fault", extra=kv(service=fault.service, what=fault.what,
                                                           detail=fault.detail, critical=critical,
-                                                          notice_latency_s=round(fault.noticed_s - fault.since_s, 4)))
+                                                          notice_latency_s=round(fault.noticed_s - fault.since_s, 4),
+                                                          starvation=starved))
                     act(sequencer.on_fault(now, fault.text(), critical), now)
                 if now < next_tick:
                     continue

@@ -176,3 +176,18 @@ def test_a_starved_delivery_path_excuses_every_service_but_a_running_one_excuses
     adapter.note("bridge", 1.2)
     assert adapter.excuse("bridge", 1.2) is None
     assert delivery_pids()[0] == os.getpid()
+
+
+def test_a_refused_excuse_says_what_the_judge_saw():
+    fake = FakeReader()
+    adapter = ServiceStarvation(StarvationJudge(fake), check_pid=lambda pid: True, path_pids=(90,))
+    assert adapter.explain("bridge").startswith("pid unknown")
+    adapter.heard("bridge", 11)
+    for pid in (11, 90):
+        fake.samples[pid] = SchedSample(0.0, 0.0, "S")
+    adapter.note("bridge", 1.0)
+    fake.samples[11] = SchedSample(0.0, 0.01, "S")
+    adapter.note("bridge", 1.1)
+    line = adapter.explain("bridge")
+    assert "pid 11 not starved: its threads waited 10 ms for a CPU in the last 100 ms (state S)" in line
+    assert "path pid 90 not starved: its threads waited 0 ms" in line
