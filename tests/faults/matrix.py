@@ -9,14 +9,14 @@ Run (hours for the whole matrix; resumable, bounded):
 Every run is one `handover-up` (taking receiver) with one fault injected at the phase entry
 (`harness.run_with_faults`) and judged by `invariants.judge` (strict exit off: a heavy delay
 or drop that silences a stream may end in a named protective stop). Results accumulate in
-``out/faults/matrix.json`` (a cell with enough runs is skipped on the next call, so an
-interrupted campaign resumes) and the table is rewritten to ``out/faults/matrix.md`` after
+``docs/data/faults/matrix.json`` (a cell with enough runs is skipped on the next call, so an
+interrupted campaign resumes) and the table is rewritten to ``docs/data/faults/matrix.md`` after
 every run. Cells are filled round by round (every chosen cell gets its 1st run, then its 2nd,
 ...), so a campaign stopped by its budget leaves an even table rather than a few full cells.
 Each run records the commit it ran on, its start (UTC), wall time (and how it split into
 start-up, episode and shutdown) and the machine's 1-minute load at its end; the launcher output of a run that broke an invariant, that ended in a stop its
 fault does not explain (`unexplained_stop`) or that the harness could not finish is kept in
-``out/faults/matrix_logs/<service>-<phase>-<fault>-<seed>.log`` for diagnosis.
+``docs/data/faults/matrix_logs/<service>-<phase>-<fault>-<seed>.log`` for diagnosis.
 
 Per service, delay/drop/flood hit the topic it publishes that the handover depends on most
 (`SERVICE_TOPIC`); delay 0.3 s (twice the 0.15 s stream time-out), drop p = 0.5, flood
@@ -41,7 +41,8 @@ import numpy as np
 from tests.faults.harness import run_with_faults
 from tests.faults.invariants import REPORT_ONLY, FaultPlan, judge
 
-OUT = Path(__file__).resolve().parents[2] / "out" / "faults"
+#: Where the campaign of record lives (tracked: its runs took hours; `--out` for a scratch one).
+OUT = Path(__file__).resolve().parents[2] / "docs" / "data" / "faults"
 SERVICES = ("bridge", "motion", "gripper", "supervisor", "planner", "tracker", "kinect", "recorder")
 PHASES = ("locate", "pick", "plan", "reach", "transfer", "released")
 FAULTS = ("kill", "freeze", "delay", "drop", "flood")

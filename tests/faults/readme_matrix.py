@@ -1,4 +1,4 @@
-"""Rewrite the README's section "The full fault matrix" from out/faults/matrix.json.
+"""Rewrite the README's section "The full fault matrix" from docs/data/faults/matrix.json.
 
     python -m tests.faults.readme_matrix
 
@@ -192,7 +192,7 @@ def main() -> int:
     repo = REPO
     readme = repo / "README.md"
     s = readme.read_text()
-    results = json.loads((repo / "out/faults/matrix.json").read_text())
+    results = json.loads((repo / "docs/data/faults/matrix.json").read_text())
     cells = [(a, b, c) for a in SERVICES for b in PHASES for c in FAULTS]
     prog = progress(results, cells, 10)
     runs = [r | {"key": k} for k, c in results.items() for r in c["runs"]]
@@ -204,7 +204,7 @@ def main() -> int:
     vio_lines = []
     for r in bad:
         why = EXPLAIN.get(f"{r['key']}#{r['seed']}@{r['commit']}", "**Not explained yet**: see the log.")
-        log = f" (`out/faults/{r['log']}`)" if r.get("log") else ""
+        log = f" (`docs/data/faults/{r['log']}`)" if r.get("log") else ""
         vio_lines.append(f"- `{r['key']}` run {r['seed'] + 1} on `{r['commit']}`: {'; '.join(r['violations'])[:300]}{log}. {why}")
     # stops that the injected fault does not explain (`matrix.unexplained_stop`)
     odd, odd_since_fix = [], []
@@ -219,7 +219,7 @@ def main() -> int:
                 f"(\"{r['exit_line'].split('exit 1: ', 1)[-1][:90]}\")"
                 + (f". {told}" if told else (". Before the supervisor stall fix." if not _since(r["commit"], "904bbe4")
                                              else ". **Not explained yet**: see the log."))
-                + (f" Log: `out/faults/{r['log']}`." if r.get("log") else ""))
+                + (f" Log: `docs/data/faults/{r['log']}`." if r.get("log") else ""))
         odd.append(line)
         if _since(r["commit"], "904bbe4"):
             odd_since_fix.append(run_id)
@@ -252,7 +252,7 @@ Each run records its commit: the runs span {len(commits)} commits ({", ".join(da
 ran. Latencies count only the runs judged by the senders' stamps (the earlier
 {sum(1 for r in runs if r.get("latency_by") == "receive")} runs were timed by when the
 observer received the messages, which includes its own delays). Per fault, over all phases
-(`out/faults/matrix.md`, `out/faults/matrix.json`):
+(`docs/data/faults/matrix.md`, `docs/data/faults/matrix.json`):
 
 {summ}
 Detection is from the injection to the supervisor's (or the launcher's) first report naming
@@ -290,10 +290,10 @@ silent: no robot/joint_state`) by design: a stream 0.3 s late is a stale stream.
 
 </details>
 
-Earlier partial campaigns: `out/faults/matrix_session3.{{md,json}}` (every service × reach and
+Earlier partial campaigns: `docs/data/faults/matrix_session3.{{md,json}}` (every service × reach and
 transfer × every fault, one run each, 83 runs; 4 "arm moved after the release stop" violations
 judged by receive order, and a flood on `robot/joint_state` that made motion's IK fall behind,
-both fixed since) and `out/faults/matrix_session2.{{md,json}}` (22 runs).
+both fixed since) and `docs/data/faults/matrix_session2.{{md,json}}` (22 runs).
 
 """
     start = next(s.index(h) for h in (SECTION_DONE + "\n", SECTION_IN_PROGRESS + "\n") if h in s)

@@ -3,7 +3,7 @@
     python -m pytest tests/faults/test_fault_matrix.py -m long -s
     FAULT_MATRIX_ARGS="--runs 1 --services motion --phases transfer" python -m pytest ... -m long
 
-It drives `tests.faults.matrix` (resumable: cells already in out/faults/matrix.json are
+It drives `tests.faults.matrix` (resumable: cells already in docs/data/faults/matrix.json are
 skipped) and fails if any run broke an invariant.
 """
 
