@@ -27,6 +27,8 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+from services.runtime.starvation import parse_schedstat
+
 #: Environment variable through which the launcher gives its children the router's pid.
 ROUTER_PID_ENV = "HANDOVER_ROUTER_PID"
 #: Shortest window over which run-queue wait is judged, s.
@@ -71,20 +73,19 @@ def read_sched(pid: int, at_s: float, proc_root: str = "/proc") -> SchedSample |
     try:
         with open(f"{base}/stat", "rb") as f:
             state = parse_state(f.read(512).decode("ascii", "replace"))
-        wait_ns = 0
+        wait_s = 0.0
         for tid in os.listdir(f"{base}/task"):
             try:
                 with open(f"{base}/task/{tid}/schedstat", "rb") as f:
-                    fields = f.read(128).split()
+                    wait = parse_schedstat(f.read(128).decode("ascii", "replace"))
             except OSError:  # the thread ended meanwhile
                 continue
-            if len(fields) >= 2 and fields[1].isdigit():
-                wait_ns += int(fields[1])
+            wait_s += wait or 0.0
     except OSError:
         return None
     if state is None:
         return None
-    return SchedSample(at_s, wait_ns / 1e9, state)
+    return SchedSample(at_s, wait_s, state)
 
 
 def starved(older: SchedSample, newer: SchedSample, fraction: float = STARVED_FRACTION) -> bool:
