@@ -36,6 +36,7 @@ from bus_schema.codec import DecodeError
 from services.gripper.config import GripperConfig
 from services.gripper.core import GripDecision, GripperCore, MotionReading, WrenchReading
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
+from services.runtime.repeat import RepeatGate
 
 log = logging.getLogger(__name__)
 
@@ -57,6 +58,7 @@ class _GripperLoop:
         self.command_pub = node.publisher(topics.GRIPPER_COMMAND)
         self.state_pub = node.publisher(topics.GRIPPER_STATE)
         self.release_pub = node.publisher(topics.GRIPPER_RELEASE)
+        self.command_gate = RepeatGate()  # open/carry/hold: the same command is not re-sent at 100 Hz
         self.state_period_s = 1.0 / config.state_rate_hz
         self.last_state_s = -1.0
         self.last_key: tuple | None = None
@@ -107,7 +109,10 @@ class _GripperLoop:
 
     # ------------------------------------------------------------------ output (lock held)
     def publish(self, decision: GripDecision, now_s: float, rx_s: float | None = None) -> None:
-        self.command_pub.put(grip_force_n=decision.grip_force_n, position_m=decision.position_m, mode=decision.mode)
+        command = (decision.grip_force_n, decision.position_m, decision.mode)
+        if self.command_gate.due(command, now_s, always=decision.stepped or decision.release_event):
+            self.command_pub.put(grip_force_n=decision.grip_force_n, position_m=decision.position_m,
+                                 mode=decision.mode)
         if rx_s is not None and decision.stepped:
             self.latency_s.append(time.monotonic() - rx_s)
         if decision.release_event:
@@ -201,5 +206,7 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
                 except Exception:  # the session may already be closing
                     pass
         log.info("gripper stopped", extra=kv(steps=core.steps, holds=core.holds, released=core.released,
+                                             commands_sent=loop.command_gate.sent,
+                                             unchanged_commands_not_sent=loop.command_gate.skipped,
                                              **loop.latency_summary()))
     return 0

@@ -19,11 +19,14 @@ import os
 import signal
 import sys
 
+from services.runtime.zenoh_threads import keep_zenoh_default_threads
+
 READY = "ready"
 
 
 def serve(config_json: str) -> int:
     """Open the router described by `config_json` and block until SIGINT/SIGTERM."""
+    keep_zenoh_default_threads()
     import zenoh
 
     try:

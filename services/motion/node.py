@@ -22,6 +22,7 @@ from services.motion.errors import MotionError
 from services.motion.ik import ArmIk
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.runtime.loop import OVERRUN_LOG_PERIOD_S
+from services.runtime.repeat import RepeatGate
 
 log = logging.getLogger(__name__)
 
@@ -47,6 +48,7 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
         last_state = None
         next_tick = time.monotonic()
         last_status_s = -float("inf")
+        command_gate = RepeatGate()
         seen_stops = 0
         ticks = overruns = 0
         while not node.should_stop:
@@ -86,12 +88,12 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
                 measured_at_s=measured_at,
             )
             if out.command_q_rad is not None:
-                command_pub.put(
-                    names=joint_names,
-                    position_rad=out.command_q_rad.tolist(),
-                    velocity_rad_s=out.command_dq_rad_s.tolist(),
-                    goal_id=out.goal_id,
-                )
+                position = out.command_q_rad.tolist()
+                velocity = out.command_dq_rad_s.tolist()
+                # Moving: every tick. Holding still: on a change, else a copy every 50 ms.
+                if command_gate.due((*position, out.goal_id), now, always=any(velocity)):
+                    command_pub.put(names=joint_names, position_rad=position, velocity_rad_s=velocity,
+                                    goal_id=out.goal_id)
             if out.status_changed or now - last_status_s >= status_every_s:
                 st = out.status
                 status_pub.put(
@@ -102,5 +104,6 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
                     tool_speed_m_s=st.tool_speed_m_s,
                 )
                 last_status_s = now
-        log.info("motion stopped", extra=kv(ticks=ticks, overruns=overruns))
+        log.info("motion stopped", extra=kv(ticks=ticks, overruns=overruns, commands_sent=command_gate.sent,
+                                            unchanged_commands_not_sent=command_gate.skipped))
     return 0

@@ -11,9 +11,11 @@ import logging
 import sys
 from collections.abc import Callable
 
+from services.runtime.allocator import keep_freed_memory
 from services.runtime.errors import ServiceError
 from services.runtime.logs import setup_logging, write_line
 from services.runtime.profile import DEFAULT_PROFILE, Profile, load_profile_file
+from services.runtime.zenoh_threads import use_one_zenoh_thread
 
 EXIT_OK = 0
 EXIT_FAILURE = 1
@@ -72,6 +74,8 @@ def run_main(run: Callable[[argparse.Namespace], int], args: argparse.Namespace,
              service: str | None = None) -> int:
     """Run a service's `run(args)` with logging set up and errors turned into exit codes."""
     name = service or getattr(args, "service_name", None) or "handover"
+    use_one_zenoh_thread()  # before this process's first Zenoh session
+    keep_freed_memory()
     setup_logging(name, getattr(args, "log_level", "info"), getattr(args, "log_json", False))
     log = logging.getLogger(name)
     try:

@@ -19,6 +19,7 @@ import zenoh
 from services.runtime.liveliness import alive_services
 from services.runtime.node import open_session
 from services.runtime.profile import Profile, free_tcp_port, load_profile_file
+from services.runtime.zenoh_threads import ONE_WORKER_THREAD, ZENOH_RUNTIME_ENV
 
 
 def loopback_profile(port: int | None = None, profile: str = "sim") -> Profile:
@@ -35,6 +36,11 @@ class BusRouter:
         self.session: zenoh.Session | None = None
 
     def __enter__(self) -> zenoh.Session:
+        if os.environ.get(ZENOH_RUNTIME_ENV) == ONE_WORKER_THREAD:
+            # A one-worker router stalls the whole bus behind one slow subscriber
+            # (services/runtime/zenoh_threads.py); tests must route as the real router does.
+            raise RuntimeError(f"{ZENOH_RUNTIME_ENV} is the services' one-worker layout in this process: "
+                               "a process that hosts a router keeps Zenoh's default threads")
         self.session = open_session(self.profile, "router", timeout_s=5.0)
         return self.session
 

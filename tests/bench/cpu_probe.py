@@ -31,6 +31,9 @@ _ALIVE = re.compile(r"all \d+ services alive")
 _STARTED = re.compile(r"started (?P<name>\w+) \(pid (?P<pid>\d+)\)")
 _EPISODE_START = re.compile(r"episode 1: locate")
 _SUMMARY = re.compile(r"\] summary: |exit \d+")
+#: The supervisor's line when its episode ends: with ``--job none`` it still runs the
+#: profile's episode(s), so the stack is idle only after this line.
+_EPISODE_ENDED = re.compile(r"\[supervisor\].*episode summary")
 
 
 @dataclass
@@ -40,6 +43,9 @@ class CpuWindow:
     Attributes:
         seconds: length of the window, s (wall clock).
         cores: per process name, CPU seconds / window seconds (1.0 = one core busy).
+        switches_per_s: per process name, context switches of all its threads per second
+            (voluntary + involuntary, `/proc/PID/task/*/status`): each is a thread put to sleep
+            and woken again.
         recording_bytes: size of the run's recording once the stack has stopped, bytes.
         run_seconds: wall time from the launch to the stack's exit, s (the recording's span).
         output: the launcher's whole output.
@@ -47,6 +53,7 @@ class CpuWindow:
 
     seconds: float
     cores: dict[str, float] = field(default_factory=dict)
+    switches_per_s: dict[str, float] = field(default_factory=dict)
     recording_bytes: int = 0
     run_seconds: float = 0.0
     output: str = ""
@@ -54,6 +61,10 @@ class CpuWindow:
     @property
     def total_cores(self) -> float:
         return sum(self.cores.values())
+
+    @property
+    def total_switches_per_s(self) -> float:
+        return sum(self.switches_per_s.values())
 
     @property
     def recording_bytes_per_s(self) -> float:
@@ -67,6 +78,34 @@ def _cpu_s(proc: psutil.Process) -> float:
         return t.user + t.system
     except psutil.Error:
         return float("nan")
+
+
+def _switches(proc: psutil.Process) -> float:
+    """Context switches so far of every thread of `proc` (nan once it is gone)."""
+    total = 0
+    try:
+        for task in Path(f"/proc/{proc.pid}/task").iterdir():
+            try:
+                for line in (task / "status").read_text().splitlines():
+                    if line.startswith(("voluntary_ctxt_switches", "nonvoluntary_ctxt_switches")):
+                        total += int(line.split()[1])
+            except (OSError, ValueError):
+                continue  # the thread ended meanwhile
+    except OSError:
+        return float("nan")
+    return float(total)
+
+
+def wake_cost_us(rate_hz: float = 100.0, seconds: float = 2.0) -> float:
+    """CPU time (µs) one wake of a sleeping Python thread costs on this machine: a fresh
+    interpreter sleeps to a `rate_hz` grid for `seconds` and divides its CPU time by its wakes."""
+    code = ("import time, resource\n"
+            f"n = int({rate_hz} * {seconds}); t = time.perf_counter(); u = resource.getrusage(resource.RUSAGE_SELF)\n"
+            f"for k in range(n):\n    d = t + (k + 1) / {rate_hz} - time.perf_counter()\n"
+            "    if d > 0: time.sleep(d)\n"
+            "v = resource.getrusage(resource.RUSAGE_SELF)\n"
+            "print((v.ru_utime + v.ru_stime - u.ru_utime - u.ru_stime) / n * 1e6)")
+    return float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
 
 
 def _wait_for(path: Path, pattern: re.Pattern[str], proc: subprocess.Popen, timeout_s: float) -> str:
@@ -105,7 +144,9 @@ def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: 
               checkout: Path | None = None) -> CpuWindow:
     """Start `handover-up --job JOB`, measure per-process CPU over the window, stop it.
 
-    `job="none"`: the window starts `settle_s` after every service is alive and lasts `idle_s`.
+    `job="none"`: the window starts `settle_s` after the supervisor's episode has ended (the
+    supervisor runs the profile's episode whatever the launcher's job; before its summary the
+    stack is not idle) and lasts `idle_s`.
     `job="handover"`: the window runs from the first episode's ``locate`` line to the summary.
     `checkout`: run the stack of another source tree (e.g. an older commit's, for a baseline
     measured in the same sitting); its modules shadow the installed ones (``python -m`` puts the
@@ -122,20 +163,24 @@ def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: 
         launcher = psutil.Process(proc.pid)
         text = _wait_for(out_path, _ALIVE, proc, timeout_s)
         if job == "none":
+            _wait_for(out_path, _EPISODE_ENDED, proc, timeout_s)
             time.sleep(settle_s)
             text = out_path.read_text(errors="replace")
         else:
             text = _wait_for(out_path, _EPISODE_START, proc, timeout_s)
         procs = _processes(launcher, text)
         before = {name: _cpu_s(p) for name, p in procs.items()}
+        before_sw = {name: _switches(p) for name, p in procs.items()}
         t0 = time.monotonic()
         if job == "none":
             time.sleep(idle_s)
         else:
             _wait_for(out_path, _SUMMARY, proc, timeout_s)
         after = {name: _cpu_s(p) for name, p in procs.items()}
+        after_sw = {name: _switches(p) for name, p in procs.items()}
         seconds = time.monotonic() - t0
-        window = CpuWindow(seconds, {n: (after[n] - before[n]) / seconds for n in procs})
+        window = CpuWindow(seconds, {n: (after[n] - before[n]) / seconds for n in procs},
+                           {n: (after_sw[n] - before_sw[n]) / seconds for n in procs})
     finally:
         interrupt_then_kill(proc, 30.0)
     window.run_seconds = time.monotonic() - t_launch
@@ -153,6 +198,7 @@ def main(argv: list[str] | None = None) -> int:
     args.dir.mkdir(parents=True, exist_ok=True)
     w = run_stack(args.dir, args.job, args.seconds)
     print(json.dumps({"seconds": round(w.seconds, 2), "total_cores": round(w.total_cores, 3),
+                      "switches_per_s": round(w.total_switches_per_s),
                       "recording_MB": round(w.recording_bytes / 1e6, 2),
                       "recording_MB_per_s": round(w.recording_bytes_per_s / 1e6, 3),
                       "cores": {k: round(v, 3) for k, v in sorted(w.cores.items(), key=lambda kv: -kv[1])}},

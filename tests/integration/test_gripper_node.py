@@ -44,6 +44,8 @@ def test_holds_without_sensors_then_follows_fs1_then_releases_once(gripper, make
     assert wait_until(lambda: states.latest() is not None, 5.0)
     s = states.latest().msg
     assert s.mode == "hold" and not s.sensors_fresh and "never received" in s.reason
+    # An unchanged hold command is repeated every 50 ms (services/runtime/repeat.py).
+    assert wait_until(lambda: commands.latest() is not None, 0.5)
     assert commands.latest().msg.grip_force_n >= 10.0  # the hold floor: never open without data
 
     _stream(wrench, motion, 0.5)
