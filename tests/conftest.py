@@ -8,20 +8,11 @@ import pytest
 
 from services.runtime import ServiceNode
 from services.runtime.testing import BusRouter, loopback_profile
-from services.runtime.zenoh_threads import ZENOH_RUNTIME_ENV
+from services.runtime.zenoh_threads import KEEP_DEFAULT_PID_ENV
 
-
-@pytest.fixture(autouse=True)
-def _zenoh_runtime_env_unchanged():
-    """A CLI's `run_main` called in this process sets the services' one-worker Zenoh layout
-    (`services.runtime.zenoh_threads`); put the variable back so that it never decides the
-    threads of the in-process router of a later test."""
-    before = os.environ.get(ZENOH_RUNTIME_ENV)
-    yield
-    if before is None:
-        os.environ.pop(ZENOH_RUNTIME_ENV, None)
-    else:
-        os.environ[ZENOH_RUNTIME_ENV] = before
+# This process hosts in-process routers (`bus`) and calls CLIs in-process: it keeps Zenoh's
+# default threads whatever a CLI's `run_main` does (services/runtime/zenoh_threads.py).
+os.environ[KEEP_DEFAULT_PID_ENV] = str(os.getpid())
 
 
 @pytest.fixture

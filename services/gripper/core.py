@@ -34,6 +34,7 @@ from services.gripper.config import GripperConfig
 from services.gripper.controllers import make_controller
 from services.gripper.errors import GripperError
 from services.gripper.spring import GripSpring
+from services.runtime.repeat import HOLD_REPEAT_S
 
 __all__ = ["GripDecision", "GripperCore", "MotionReading", "WrenchReading", "MODE_NAMES"]
 
@@ -180,20 +181,32 @@ class GripperCore:
         return None if self._wrench is None else self._wrench.rx_s
 
     # ------------------------------------------------------------------ timing
-    def due(self, now_s: float) -> bool:
-        """Whether `tick` should run now: a new wrench sample and the step grid point is at
-        most a quarter period away, or a whole period since the last tick (watchdog)."""
+    @property
+    def releasing(self) -> bool:
+        """The controller runs (request ``transfer``): every wrench sample may change the grip.
+        Otherwise (``open``, ``carry``) the command is fixed until the request changes."""
+        return self.request == "transfer"
+
+    def _period_s(self) -> float:
+        """Tick period: the control period while releasing; at rest, the period of the hold
+        command's copies (`HOLD_REPEAT_S`): nothing a tick computes can change sooner."""
         period = self.config.period_s
-        if self._new_wrench and now_s >= self._next_step_s - _EARLY_FRACTION * period:
+        return period if self.releasing else max(period, HOLD_REPEAT_S)
+
+    def due(self, now_s: float) -> bool:
+        """Whether `tick` should run now: while releasing, a new wrench sample and the step
+        grid point is at most a quarter period away; or a whole period since the last tick
+        (watchdog)."""
+        period = self.config.period_s
+        if self.releasing and self._new_wrench and now_s >= self._next_step_s - _EARLY_FRACTION * period:
             return True
-        return now_s - self._last_tick_s >= period
+        return now_s - self._last_tick_s >= self._period_s()
 
     def next_due_s(self, now_s: float) -> float:
         """Seconds until `due` can next become true without new data (for the node's wait)."""
-        period = self.config.period_s
-        wait = self._last_tick_s + period - now_s
-        if self._new_wrench:
-            wait = min(wait, self._next_step_s - _EARLY_FRACTION * period - now_s)
+        wait = self._last_tick_s + self._period_s() - now_s
+        if self.releasing and self._new_wrench:
+            wait = min(wait, self._next_step_s - _EARLY_FRACTION * self.config.period_s - now_s)
         return max(0.0, wait)
 
     # ------------------------------------------------------------------ freshness

@@ -36,13 +36,14 @@ from bus_schema.codec import DecodeError
 from services.gripper.config import GripperConfig
 from services.gripper.core import GripDecision, GripperCore, MotionReading, WrenchReading
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
-from services.runtime.repeat import RepeatGate
+from services.runtime.repeat import HOLD_REPEAT_S, RepeatGate
 
 log = logging.getLogger(__name__)
 
 SERVICE_NAME = "gripper"
-#: The main thread wakes at least this often (heartbeat, shutdown, supervisor), s.
-_MAX_WAIT_S = 0.02
+#: The main thread wakes at least this often, s (the heartbeat has its own thread; a shutdown
+#: and a supervisor message wake it at once).
+_MAX_WAIT_S = HOLD_REPEAT_S
 #: Latency samples kept for the exit log (wrench receive → command published).
 _LATENCY_WINDOW = 20_000
 #: At most one "holding the grip" warning per kind of reason per this many seconds.
@@ -192,6 +193,8 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
                             log.info("grip request", extra=kv(request=rx.msg.grip_request, phase=rx.msg.phase))
                             core.set_request(rx.msg.grip_request)
                     episode_id = rx.msg.episode_id
+                if queued is not None:  # at rest a wrench sample changes nothing: no wake for it
+                    queued[0].wakes_loop = core.releasing
                 if node.should_stop:
                     break
                 with loop.lock:

@@ -182,6 +182,14 @@ class MotionController:
         return self._status
 
     @property
+    def at_rest(self) -> bool:
+        """Nothing changes until a goal or a stop arrives: idle or holding still, no goal
+        waiting for the arm to rest, no move left to judge settled (the node then ticks only
+        to repeat the hold command, `services.runtime.repeat`)."""
+        return (self._mode in (_Mode.IDLE, _Mode.HOLD) and self._deferred_goal is None
+                and self._status.state != "moving")
+
+    @property
     def commanded_q_rad(self) -> np.ndarray | None:
         """Last commanded joint positions (7,), rad, or None before the first command."""
         return None if self._q_cmd is None else self._q_cmd.copy()

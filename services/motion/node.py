@@ -22,7 +22,7 @@ from services.motion.errors import MotionError
 from services.motion.ik import ArmIk
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.runtime.loop import OVERRUN_LOG_PERIOD_S
-from services.runtime.repeat import RepeatGate
+from services.runtime.repeat import HOLD_REPEAT_S, RepeatGate
 
 log = logging.getLogger(__name__)
 
@@ -49,15 +49,17 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
         next_tick = time.monotonic()
         last_status_s = -float("inf")
         command_gate = RepeatGate()
-        seen_stops = 0
-        ticks = overruns = 0
+        seen_stops = seen_goals = 0
+        ticks = overruns = rest_ticks = 0
         while not node.should_stop:
             now = time.monotonic()
-            stop_pending = stops.stats.accepted != seen_stops
-            if now < next_tick and not stop_pending:
+            # A stop or a goal is taken at once; at rest nothing else needs a tick before the
+            # next copy of the hold command is due.
+            event_pending = stops.stats.accepted != seen_stops or goals.stats.accepted != seen_goals
+            if now < next_tick and not event_pending:
                 node.wait(next_tick - now)
                 continue
-            seen_stops = stops.stats.accepted
+            seen_stops, seen_goals = stops.stats.accepted, goals.stats.accepted
             periodic = now >= next_tick
             if periodic:
                 next_tick += period
@@ -104,6 +106,10 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
                     tool_speed_m_s=st.tool_speed_m_s,
                 )
                 last_status_s = now
-        log.info("motion stopped", extra=kv(ticks=ticks, overruns=overruns, commands_sent=command_gate.sent,
+            if controller.at_rest:  # holding still: tick again when the hold's copy is due
+                rest_ticks += 1
+                next_tick = max(next_tick, now + HOLD_REPEAT_S)
+        log.info("motion stopped", extra=kv(ticks=ticks, rest_ticks=rest_ticks, overruns=overruns,
+                                            commands_sent=command_gate.sent,
                                             unchanged_commands_not_sent=command_gate.skipped))
     return 0

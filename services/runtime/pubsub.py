@@ -77,6 +77,9 @@ class TypedSubscription(Generic[M]):
     def __init__(self, node: ServiceNode, topic: Topic, queue_size: int, wake: bool = True) -> None:
         self.topic = topic
         self.wake = wake
+        #: ``wake=True`` only: False keeps queueing samples without waking the loop (a loop
+        #: at rest that will read them at its next tick).
+        self.wakes_loop = wake
         self.key = topic.key(node.profile.prefix)
         self._stats = SubscriptionStats()
         self._node = node
@@ -92,7 +95,7 @@ class TypedSubscription(Generic[M]):
 
     # Runs on a Zenoh thread: decode, count, enqueue, notify. Nothing else.
     def _on_sample(self, sample: zenoh.Sample) -> None:
-        if self._accept(sample, time.monotonic()):
+        if self._accept(sample, time.monotonic()) and self.wakes_loop:
             self._node._notify()
 
     def _pump(self) -> None:

@@ -31,10 +31,17 @@ ZENOH_RUNTIME_ENV = "ZENOH_RUNTIME"
 #: Every runtime handed over to ``app``, which keeps its default single worker thread.
 ONE_WORKER_THREAD = "(rx: (handover: app), acc: (handover: app), tx: (handover: app), net: (handover: app))"
 
+#: The process whose pid this names keeps Zenoh's default layout even through `run_main`: the
+#: test runner, which hosts in-process routers and calls CLIs in-process (its children, the
+#: services under test, have other pids and take the one-worker layout).
+KEEP_DEFAULT_PID_ENV = "HANDOVER_ZENOH_DEFAULT_THREADS_PID"
 
-def use_one_zenoh_thread() -> str:
-    """Set `ZENOH_RUNTIME` to `ONE_WORKER_THREAD` unless the user set it; returns the value
-    in force for this process (and its children)."""
+
+def use_one_zenoh_thread() -> str | None:
+    """Set `ZENOH_RUNTIME` to `ONE_WORKER_THREAD` unless the user set it (or this process is
+    the one `KEEP_DEFAULT_PID_ENV` names); returns the value in force for this process."""
+    if os.environ.get(KEEP_DEFAULT_PID_ENV) == str(os.getpid()):
+        return os.environ.get(ZENOH_RUNTIME_ENV)
     return os.environ.setdefault(ZENOH_RUNTIME_ENV, ONE_WORKER_THREAD)
 
 

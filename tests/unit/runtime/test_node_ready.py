@@ -58,6 +58,7 @@ def test_only_waking_subscriptions_wake_wait(bus):
     with ServiceNode("probe3", profile, install_signal_handlers=False) as node:
         quiet = node.subscribe(topics.MOTION_STOP, wake=False)
         node.ready()
+        assert wait_until(lambda: "probe3" in alive_services(peer, profile.prefix, 0.3), 5.0)  # listening
         node.wait(0.0)  # clear
         _put_stop(profile, peer, 0)
         assert wait_until(lambda: quiet.stats.accepted == 1, 5.0)
@@ -66,6 +67,7 @@ def test_only_waking_subscriptions_wake_wait(bus):
     with ServiceNode("probe4", profile, install_signal_handlers=False) as node:
         loud = node.subscribe(topics.MOTION_STOP)
         node.ready()
+        assert wait_until(lambda: "probe4" in alive_services(peer, profile.prefix, 0.3), 5.0)
         node.wait(0.0)
         _put_stop(profile, peer, 1)
         assert wait_until(lambda: loud.stats.accepted == 1, 5.0)

@@ -16,7 +16,12 @@ from services.launcher.processes import RouterProcess
 from services.runtime.profile import zenoh_config_dict
 from services.runtime import open_session
 from services.runtime.testing import BusRouter, loopback_profile, wait_until
-from services.runtime.zenoh_threads import ONE_WORKER_THREAD, ZENOH_RUNTIME_ENV
+from services.runtime.zenoh_threads import (
+    KEEP_DEFAULT_PID_ENV,
+    ONE_WORKER_THREAD,
+    ZENOH_RUNTIME_ENV,
+    use_one_zenoh_thread,
+)
 
 _CLIENT = """
 import json, os, sys
@@ -102,3 +107,13 @@ def test_a_process_that_hosts_a_router_refuses_the_one_worker_layout(monkeypatch
     monkeypatch.setenv(ZENOH_RUNTIME_ENV, ONE_WORKER_THREAD)
     with pytest.raises(RuntimeError, match="keeps Zenoh's default threads"), BusRouter(loopback_profile()):
         pass
+
+
+def test_the_process_named_to_keep_the_default_layout_is_left_alone(monkeypatch):
+    """The test runner hosts in-process routers: a CLI run in it must not pick the layout."""
+    monkeypatch.setenv(ZENOH_RUNTIME_ENV, "")  # recorded, so that teardown restores it
+    monkeypatch.delenv(ZENOH_RUNTIME_ENV)
+    monkeypatch.setenv(KEEP_DEFAULT_PID_ENV, str(os.getpid()))
+    assert use_one_zenoh_thread() is None and ZENOH_RUNTIME_ENV not in os.environ
+    monkeypatch.setenv(KEEP_DEFAULT_PID_ENV, str(os.getpid() + 1))  # another process's pid
+    assert use_one_zenoh_thread() == ONE_WORKER_THREAD
