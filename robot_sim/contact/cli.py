@@ -80,8 +80,9 @@ def _add_common(p: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m robot_sim.contact",
-                                     description="Contact simulator of the handover transfer phase (issue 3).")
+    parser = argparse.ArgumentParser(prog="handover-contact",
+                                     description="Contact simulator of the handover transfer phase: one "
+                                                 "episode, a batch, or the thesis's figures.")
     parser.add_argument("--log-level", default="WARNING", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
     sub = parser.add_subparsers(dest="command", required=True)
     ep = sub.add_parser("episode", help="run one episode, print its outcome, optionally plot it")

@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
 from pathlib import Path
 
-from services.launcher.node import JOBS, LaunchOptions, Launcher, LauncherError
+from services.launcher.node import JOBS, LaunchOptions, Launcher, LauncherUsageError
 from services.launcher.processes import DEFAULT_OUTPUT_QUEUE_LINES, stdout_outlet
 from services.runtime import base_parser, load_profile_file, run_main
 from services.runtime.errors import ProfileError
@@ -26,6 +27,18 @@ def _prefix_own_logs() -> None:
     logging.getLogger().handlers[:] = [_Prefixed()]
 
 
+def _check_recording_dir(directory: Path) -> None:
+    """Refuse a recording folder that cannot be created or written before any service starts
+    (the recorder would otherwise fail, be restarted and fail again mid-run)."""
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=directory):
+            pass
+    except OSError as exc:
+        raise LauncherUsageError(f"--recording-dir {str(directory)!r}: cannot write a recording there "
+                            f"({exc.strerror or exc}); choose a writable folder") from None
+
+
 def _run(args: argparse.Namespace) -> int:
     profile = load_profile_file(args.profile)
     endpoint = args.endpoint
@@ -35,14 +48,15 @@ def _run(args: argparse.Namespace) -> int:
         elif args.port.isdigit() and 0 < int(args.port) < 65536:
             endpoint = f"tcp/127.0.0.1:{int(args.port)}"
         else:
-            raise LauncherError(f"--port {args.port!r} must be a port number 1–65535 or 'auto'")
+            raise LauncherUsageError(f"--port {args.port!r} must be a port number 1–65535 or 'auto'")
     profile = profile.with_bus(endpoint, args.prefix)
     cfg = profile.launcher
     options = LaunchOptions(
         job=args.job or str(cfg.get("job", "handover")),
         run_id=args.run_id or time.strftime("%Y%m%d-%H%M%S"),
         recording_dir=Path(args.recording_dir or cfg.get("recording_dir", "recordings")),
-        alive_timeout_s=float(args.alive_timeout_s or cfg.get("alive_timeout_s", 30.0)),
+        alive_timeout_s=float(args.alive_timeout_s if args.alive_timeout_s is not None
+                              else cfg.get("alive_timeout_s", 30.0)),
         term_timeout_s=float(cfg.get("term_timeout_s", 5.0)),
         receiver=args.receiver,
         posture=args.posture,
@@ -51,11 +65,13 @@ def _run(args: argparse.Namespace) -> int:
         episode_timeout_s=float(cfg.get("episode_timeout_s", 90.0)),
     )
     if options.episodes is not None and not 0 <= options.episodes <= 100000:
-        raise LauncherError("--episodes must be within 0–100000 (0: until Ctrl-C)")
+        raise LauncherUsageError("--episodes must be within 0–100000 (0: until Ctrl-C)")
     if options.seed is not None and not 0 <= options.seed < 2**32:
-        raise LauncherError("--seed must be within 0–4294967295")
+        raise LauncherUsageError("--seed must be within 0–4294967295")
     if not 0 < options.alive_timeout_s <= 600:
-        raise LauncherError("--alive-timeout-s must be within (0, 600] s")
+        raise LauncherUsageError("--alive-timeout-s must be within (0, 600] s")
+    if any(spec.name == "recorder" for spec in profile.services):
+        _check_recording_dir(options.recording_dir)
     queue_lines = cfg.get("output_queue_lines", DEFAULT_OUTPUT_QUEUE_LINES)
     if isinstance(queue_lines, bool) or not isinstance(queue_lines, int) or not 1 <= queue_lines <= 1_000_000:
         raise ProfileError(f"{profile.path}: launcher.output_queue_lines {queue_lines!r} must be an "

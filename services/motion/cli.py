@@ -110,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = base_parser(
         "handover-motion",
         "Motion service: PlaCo IK + Ruckig for Baxter's right arm. Without a subcommand it runs "
-        "the service (goals and stops in, 100 Hz joint commands and status out); "
+        "the service (goals and stops in, joint commands at 100 Hz while moving, and status out); "
         "`plan` plans one goal offline and prints the joint trajectory.",
     )
     sub = parser.add_subparsers(dest="command", metavar="{run,plan}")
