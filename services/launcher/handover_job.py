@@ -126,6 +126,11 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
     stop_pub = node.publisher(topics.MOTION_STOP)
     last_progress = time.monotonic()
     last_state_s: float | None = None
+    # Before the supervisor's first episode nothing can move the arm: a supervisor that dies
+    # then is seen by its liveliness (`abort_reason`), one that hangs by the episode time-out.
+    # The freshness watch starts with the first episode, after the start-up burst in which a
+    # starved router delays every state (docs/performance.md, busy machine).
+    episode_begun = False
 
     def stopped(message: str) -> JobResult:
         """Protective stop of the arm by the launcher itself (the supervisor may be gone)."""
@@ -136,9 +141,10 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
         return JobResult(False, message, watch.reports)
 
     def take_states() -> None:
-        nonlocal last_state_s, last_progress
+        nonlocal last_state_s, last_progress, episode_begun
         for rx in states.drain():
             last_state_s = rx.rx_monotonic
+            episode_begun = episode_begun or rx.msg.episode_id >= 1
             line = watch.state(rx.msg)
             if line is not None:
                 say(line)
@@ -165,12 +171,12 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
         reason = abort_reason()
         if reason is not None:
             return stopped(reason)
-        silent_s = time.monotonic() - last_state_s if last_state_s is not None else 0.0
+        silent_s = time.monotonic() - last_state_s if last_state_s is not None and episode_begun else 0.0
         if silent_s > SUPERVISOR_SILENT_S and late:
             # This loop was itself starved: let the states that waited in the socket in first.
             time.sleep(0.01)
             take_states()
-            silent_s = time.monotonic() - last_state_s if last_state_s is not None else 0.0
+            silent_s = time.monotonic() - last_state_s if last_state_s is not None and episode_begun else 0.0
         pid = supervisor_pid() if judge is not None and silent_s > NOTE_AFTER_S else None
         if pid is not None:
             for watched in (pid, *delivery_pids):
