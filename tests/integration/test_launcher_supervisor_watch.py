@@ -13,35 +13,31 @@ from services.launcher.handover_job import SUPERVISOR_SILENT_S, run_handover_job
 from services.runtime.testing import wait_until
 
 
-def _start_job(make_node, abort: threading.Event):
+def _job_then_silence(make_node, episode_id: int, phase: str):
+    """The launcher's job running; a supervisor that publishes `phase` of `episode_id` for
+    0.4 s, then falls silent. Returns (job thread, its result, abort event, stops seen)."""
+    abort = threading.Event()
     node = make_node("launcher")
     result: dict = {}
-    lines: list[str] = []
 
     def run() -> None:
-        result["job"] = run_handover_job(node, 1, lambda: "test over" if abort.is_set() else None, lines.append,
+        result["job"] = run_handover_job(node, 1, lambda: "test over" if abort.is_set() else None, lambda _: None,
                                          episode_timeout_s=30.0)
 
     thread = threading.Thread(target=run, daemon=True)
     thread.start()
-    return node, thread, result
-
-
-def _states(pub, episode_id: int, phase: str, seconds: float) -> None:
-    end = time.monotonic() + seconds
+    states = make_node("supervisor").publisher(topics.SUPERVISOR_STATE)
+    stops = make_node("bridge").subscribe(topics.MOTION_STOP)
+    time.sleep(0.3)
+    end = time.monotonic() + 0.4
     while time.monotonic() < end:
-        pub.put(phase=phase, episode_id=episode_id, grip_request="open")
+        states.put(phase=phase, episode_id=episode_id, grip_request="open")
         time.sleep(0.02)
+    return thread, result, abort, stops
 
 
 def test_a_silence_before_the_first_episode_does_not_stop_the_arm(make_node):
-    abort = threading.Event()
-    _node, thread, result = _start_job(make_node, abort)
-    supervisor = make_node("supervisor")
-    states = supervisor.publisher(topics.SUPERVISOR_STATE)
-    stops = make_node("bridge").subscribe(topics.MOTION_STOP)
-    time.sleep(0.3)
-    _states(states, 0, "idle", 0.4)
+    thread, result, abort, stops = _job_then_silence(make_node, 0, "idle")
     time.sleep(4 * SUPERVISOR_SILENT_S)  # silent, still before episode 1
     assert thread.is_alive(), result
     abort.set()
@@ -52,13 +48,7 @@ def test_a_silence_before_the_first_episode_does_not_stop_the_arm(make_node):
 
 
 def test_a_silence_in_an_episode_is_a_protective_stop_by_the_launcher(make_node):
-    abort = threading.Event()
-    _node, thread, result = _start_job(make_node, abort)
-    supervisor = make_node("supervisor")
-    states = supervisor.publisher(topics.SUPERVISOR_STATE)
-    stops = make_node("bridge").subscribe(topics.MOTION_STOP)
-    time.sleep(0.3)
-    _states(states, 1, "reach", 0.4)
+    thread, result, abort, stops = _job_then_silence(make_node, 1, "reach")
     thread.join(5.0)
     abort.set()
     assert not thread.is_alive()
