@@ -8,11 +8,22 @@ it says whether a process is stopped (``/proc/PID/stat`` state ``T``/``t``).
 
 `StarvationJudge.excuse(pid, now_s)` answers for one watched process:
 
-- **starved** (excused): over the last window (≥ `WINDOW_S`), its threads together waited on
-  the run queue for at least `STARVED_FRACTION` of the window. A frozen (SIGSTOP) process
-  never waits on the run queue; nor does one blocked on a lock or an I/O, nor one that spins
-  on a CPU (that one runs): none of those is ever excused.
+- **starved** (excused): its Python threads together waited on the run queue for at least
+  `STARVED_FRACTION` of the time, over the whole quiet spell (from the first reading, taken
+  once the process has been quiet for a beat) or over the last window (≥ `WINDOW_S`). A frozen
+  (SIGSTOP) process never waits on the run queue; nor does one blocked on a lock or an I/O,
+  nor one that spins on a CPU on a free machine (that one runs): none of those is excused.
 - otherwise, or when the process is stopped, gone, or not readable: not excused.
+
+Only the threads that can send a heartbeat count for a service: the Python threads (those
+named as the process is; Zenoh's own threads, named ``app-0``, ``rx-0`` …, run without the
+interpreter and wait on the run queue for every sample they receive, so on a busy machine
+they could make a deadlocked process look starved). The processes of the delivery path (below)
+are judged on all their threads.
+
+Why the whole spell: a service that missed its beat because it waited for a CPU may be running
+again by the time the watcher judges (its late beat on the way); the last window alone then
+shows a running process, and the silence was judged a fault although starvation caused it.
 
 A message also crosses the router and the watcher's own receive threads: when either of them is
 starved, every service looks silent at once although none is. `excuse_path(pids, now_s)` judges
@@ -36,9 +47,10 @@ WINDOW_S = 0.08
 #: A reading older than this starts a new window instead of closing one (an earlier quiet
 #: spell's), s.
 STALE_BASE_S = 4 * WINDOW_S
-#: A process whose threads waited on the run queue for at least this fraction of the window
-#: was starved of CPU, not frozen.
-STARVED_FRACTION = 0.5
+#: A process whose Python threads waited on the run queue for at least this fraction of the
+#: time judged was starved of CPU, not frozen (a frozen or blocked one waits 0; one runnable
+#: thread among four on two CPUs waits about half the time, among three about a third).
+STARVED_FRACTION = 0.3
 #: A silence longer than this is a fault even when the process was starved, s.
 MAX_EXCUSED_S = 1.0
 _STOPPED_STATES = frozenset("TtZXx")
@@ -67,15 +79,21 @@ def parse_state(stat_text: str) -> str | None:
     return stat_text[close + 2]
 
 
-def read_sched(pid: int, at_s: float, proc_root: str = "/proc") -> SchedSample | None:
-    """`SchedSample` of process `pid` now (None when it is gone or unreadable)."""
+def read_sched(pid: int, at_s: float, all_threads: bool = True, proc_root: str = "/proc") -> SchedSample | None:
+    """`SchedSample` of process `pid` now (None when it is gone or unreadable).
+
+    `all_threads=False`: count only the threads named as the process is (a Python process's
+    own threads; native libraries such as Zenoh name theirs)."""
     base = f"{proc_root}/{pid}"
     try:
         with open(f"{base}/stat", "rb") as f:
             state = parse_state(f.read(512).decode("ascii", "replace"))
+        own_name = None if all_threads else _comm(base)
         wait_s = 0.0
         for tid in os.listdir(f"{base}/task"):
             try:
+                if own_name is not None and _comm(f"{base}/task/{tid}") != own_name:
+                    continue
                 with open(f"{base}/task/{tid}/schedstat", "rb") as f:
                     wait = parse_schedstat(f.read(128).decode("ascii", "replace"))
             except OSError:  # the thread ended meanwhile
@@ -86,6 +104,11 @@ def read_sched(pid: int, at_s: float, proc_root: str = "/proc") -> SchedSample |
     if state is None:
         return None
     return SchedSample(at_s, wait_s, state)
+
+
+def _comm(path: str) -> str:
+    with open(f"{path}/comm", "rb") as f:
+        return f.read(64).strip().decode("ascii", "replace")
 
 
 def starved(older: SchedSample, newer: SchedSample, fraction: float = STARVED_FRACTION) -> bool:
@@ -106,35 +129,59 @@ class StarvationJudge:
 
     Args:
         read: `read_sched`-like reader (tests pass a fake).
+        path_pids: processes of the delivery path, judged on all their threads (the others on
+            their Python threads only).
     """
 
-    def __init__(self, read=read_sched) -> None:
+    def __init__(self, read=read_sched, path_pids: tuple[int, ...] = ()) -> None:
         self._read = read
-        self._base: dict[int, SchedSample] = {}
+        self.path_pids = tuple(path_pids)
+        self._first: dict[int, SchedSample] = {}  # of the quiet spell
+        self._base: dict[int, SchedSample] = {}  # of the window being measured
         self._verdict: dict[int, tuple[bool, str]] = {}
 
-    def note(self, pid: int, now_s: float) -> None:
-        """Take a reading of `pid` if the last is at least `WINDOW_S` old, and judge the window."""
+    def _sample(self, pid: int, now_s: float) -> SchedSample | None:
+        return self._read(pid, now_s, all_threads=pid in self.path_pids)
+
+    def note(self, pid: int, now_s: float, quiet_since_s: float | None = None) -> None:
+        """Take a reading of `pid` if the last is at least `WINDOW_S` old, and judge the
+        window and the whole quiet spell.
+
+        `quiet_since_s`: when the watched service was last heard from (monotonic s): readings
+        older than that belong to an earlier spell and are dropped."""
+        first = self._first.get(pid)
+        if first is not None and quiet_since_s is not None and first.at_s < quiet_since_s:
+            self.forget(pid)
         base = self._base.get(pid)
         if base is not None and now_s - base.at_s < WINDOW_S:
             return
         if base is not None and now_s - base.at_s > STALE_BASE_S:  # from an earlier quiet spell
+            self.forget(pid)
             base = None
-            self._verdict.pop(pid, None)
-        sample = self._read(pid, now_s)
+        sample = self._sample(pid, now_s)
         if sample is None:
-            self._base.pop(pid, None)
+            self.forget(pid)
             self._verdict[pid] = (False, "process not readable")
             return
+        first = self._first.setdefault(pid, sample)
         if base is not None:
-            waited = sample.queue_wait_s - base.queue_wait_s
-            why = (f"its threads waited {1000.0 * waited:.0f} ms for a CPU in the last "
-                   f"{1000.0 * (sample.at_s - base.at_s):.0f} ms (state {sample.state})")
-            self._verdict[pid] = (starved(base, sample), why)
+            self._verdict[pid] = self._judge(first, base, sample)
         self._base[pid] = sample
+
+    @staticmethod
+    def _judge(first: SchedSample, base: SchedSample, sample: SchedSample) -> tuple[bool, str]:
+        """Verdict over the spell (first → sample) or, failing that, the last window."""
+        for older, what in ((first, "since it went quiet"), (base, "in the last window")):
+            if starved(older, sample):
+                break
+        waited = sample.queue_wait_s - older.queue_wait_s
+        why = (f"its threads waited {1000.0 * waited:.0f} ms for a CPU in {1000.0 * (sample.at_s - older.at_s):.0f} ms "
+               f"{what} (state {sample.state})")
+        return starved(older, sample), why
 
     def forget(self, pid: int) -> None:
         """Drop what is known of `pid` (a process heard from again, or gone)."""
+        self._first.pop(pid, None)
         self._base.pop(pid, None)
         self._verdict.pop(pid, None)
 
@@ -144,7 +191,7 @@ class StarvationJudge:
         verdict = self._verdict.get(pid)
         if verdict is None or not verdict[0]:
             return None
-        fresh = self._read(pid, now_s)  # stopped since the last window? (SIGSTOP is never excused)
+        fresh = self._sample(pid, now_s)  # stopped since the last window? (SIGSTOP is never excused)
         if fresh is None or fresh.state in _STOPPED_STATES:
             return None
         return verdict[1]
@@ -194,6 +241,7 @@ class ServiceStarvation:
     def __init__(self, judge: StarvationJudge | None = None, check_pid=runs_a_service,
                  path_pids: tuple[int, ...] = ()) -> None:
         self.judge = judge or StarvationJudge()
+        self.judge.path_pids = tuple(dict.fromkeys((*self.judge.path_pids, *path_pids)))
         self._check_pid = check_pid
         self.path_pids = path_pids
         self._pids: dict[str, int] = {}
@@ -211,12 +259,12 @@ class ServiceStarvation:
             self.judge.forget(old)
         self._pids[service] = pid
 
-    def note(self, service: str, now_s: float) -> None:
+    def note(self, service: str, now_s: float, quiet_since_s: float | None = None) -> None:
         pid = self._pids.get(service)
         if pid is not None:
-            self.judge.note(pid, now_s)
+            self.judge.note(pid, now_s, quiet_since_s)
         for path_pid in self.path_pids:
-            self.judge.note(path_pid, now_s)
+            self.judge.note(path_pid, now_s, quiet_since_s)
 
     def excuse(self, service: str, now_s: float) -> str | None:
         pid = self._pids.get(service)

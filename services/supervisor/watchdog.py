@@ -28,8 +28,9 @@ from typing import Protocol
 class Excuser(Protocol):
     """Says whether a quiet service is starved of CPU (see `services.runtime.sched`)."""
 
-    def note(self, service: str, now_s: float) -> None:
-        """The service has been quiet for a while: take readings to judge it later."""
+    def note(self, service: str, now_s: float, quiet_since_s: float | None = None) -> None:
+        """The service has been quiet since `quiet_since_s` (monotonic s): take readings to
+        judge it later."""
 
     def excuse(self, service: str, now_s: float) -> str | None:
         """Why its silence is starvation (one clause), or None."""
@@ -85,7 +86,7 @@ class Watchdog:
     def __init__(self, services: list[str], heartbeat_timeout_s: float = 0.25, stream_timeout_s: float = 0.2,
                  streams: dict[str, str] | None = None,
                  heartbeat_timeouts_s: dict[str, float] | None = None, excuser: Excuser | None = None,
-                 max_excused_s: float = 1.0, note_after_s: float = 0.08) -> None:
+                 max_excused_s: float = 1.0, note_after_s: float = 0.06) -> None:
         self.excuser = excuser
         self.max_excused_s = max_excused_s
         self.note_after_s = note_after_s
@@ -179,5 +180,5 @@ class Watchdog:
                     fault = Fault(name, "silent", f"silent: no {suffix} for {now_s - at_s:.3f} s", now_s, at_s)
                     break
         if self.excuser is not None and quiet_s > self.note_after_s:
-            self.excuser.note(name, now_s)
+            self.excuser.note(name, now_s, now_s - quiet_s)
         return fault

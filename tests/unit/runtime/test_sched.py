@@ -26,10 +26,10 @@ def test_state_and_run_queue_wait_of_this_process_are_read():
     assert read_sched(2 ** 22 + 1, 0.0) is None  # no such process
 
 
-def test_starved_needs_half_the_window_on_the_run_queue_and_not_stopped():
+def test_starved_needs_a_third_of_the_window_on_the_run_queue_and_not_stopped():
     a = SchedSample(10.0, 1.0, "R")
-    assert starved(a, SchedSample(10.1, 1.06, "R"))
-    assert not starved(a, SchedSample(10.1, 1.04, "R"))  # 40 % of the window
+    assert starved(a, SchedSample(10.1, 1.03, "R"))
+    assert not starved(a, SchedSample(10.1, 1.02, "R"))  # 20 % of the window
     assert not starved(a, SchedSample(10.1, 1.09, "T"))  # stopped now
     assert not starved(a, SchedSample(10.0, 1.09, "R"))  # no window
 
@@ -38,9 +38,11 @@ class FakeReader:
     def __init__(self) -> None:
         self.samples: dict[int, SchedSample | None] = {}
         self.reads = 0
+        self.all_threads: dict[int, bool] = {}
 
-    def __call__(self, pid: int, at_s: float) -> SchedSample | None:
+    def __call__(self, pid: int, at_s: float, all_threads: bool = True) -> SchedSample | None:
         self.reads += 1
+        self.all_threads[pid] = all_threads
         s = self.samples.get(pid)
         return None if s is None else SchedSample(at_s, s.queue_wait_s, s.state)
 
@@ -57,8 +59,40 @@ def test_the_judge_excuses_only_after_a_starved_window_and_never_a_stopped_proce
     assert why is not None and "waited 70 ms" in why
     fake.samples[7] = SchedSample(0.0, 1.07, "T")  # SIGSTOP since the window: at once not excused
     assert judge.excuse(7, 10.12) is None
-    fake.samples[7] = SchedSample(0.0, 1.08, "S")  # blocked: 10 ms of 100 waited
-    assert judge.excuse(7, 10.22) is None
+    fake.samples[7] = SchedSample(0.0, 1.08, "S")  # blocked since: 10 ms of 100 waited, 80 of 220 in the spell
+    assert judge.excuse(7, 10.22) is not None and "since it went quiet" in judge.explain(7)
+    fake.samples[7] = SchedSample(0.0, 1.08, "S")  # blocked for good: the spell's share falls
+    judge.note(7, 10.31)
+    assert judge.excuse(7, 10.40) is None and "in the last window" in judge.explain(7)
+
+
+def test_a_process_starved_early_in_its_silence_is_excused_though_it_runs_now():
+    """The late-beat case: it waited for a CPU, then ran (its beat on the way) as the watcher judged."""
+    fake = FakeReader()
+    judge = StarvationJudge(fake)
+    fake.samples[5] = SchedSample(0.0, 0.0, "R")
+    judge.note(5, 1.00, quiet_since_s=0.94)
+    fake.samples[5] = SchedSample(0.0, 0.075, "R")  # 75 of 80 ms on the run queue
+    judge.note(5, 1.08, quiet_since_s=0.94)
+    fake.samples[5] = SchedSample(0.0, 0.080, "R")  # then it ran: 5 of 80 ms
+    judge.note(5, 1.17, quiet_since_s=0.94)
+    why = judge.excuse(5, 1.17)
+    assert why is not None and "waited 80 ms for a CPU in 170 ms since it went quiet" in why
+    # Heard from at 1.2: a new spell starts from a new reading, not the old one.
+    fake.samples[5] = SchedSample(0.0, 0.085, "S")
+    judge.note(5, 1.25, quiet_since_s=1.20)
+    fake.samples[5] = SchedSample(0.0, 0.090, "S")
+    judge.note(5, 1.34, quiet_since_s=1.20)
+    assert judge.excuse(5, 1.34) is None
+
+
+def test_services_are_judged_on_their_python_threads_and_the_delivery_path_on_all():
+    fake = FakeReader()
+    judge = StarvationJudge(fake, path_pids=(90,))
+    for pid in (11, 90):
+        fake.samples[pid] = SchedSample(0.0, 0.0, "S")
+        judge.note(pid, 1.0)
+    assert fake.all_threads == {11: False, 90: True}
 
 
 def test_an_old_reading_opens_a_new_window_rather_than_closing_one():
@@ -102,8 +136,9 @@ class FixedExcuser:
     def __init__(self, why: str | None) -> None:
         self.why, self.noted = why, []
 
-    def note(self, service: str, now_s: float) -> None:
+    def note(self, service: str, now_s: float, quiet_since_s: float | None = None) -> None:
         self.noted.append((service, now_s))
+        self.since = quiet_since_s
 
     def excuse(self, service: str, now_s: float) -> str | None:
         return self.why
@@ -115,7 +150,8 @@ def test_the_watchdog_excuses_a_starved_silence_up_to_its_bound_but_never_a_lost
     for name in ("bridge", "gripper"):
         dog.liveliness(name, True, 0.0)
         dog.heartbeat(name, 0.0)
-    assert dog.check(0.1) == [] and ("bridge", 0.1) in excuser.noted  # quiet > 80 ms: noted
+    assert dog.check(0.05) == [] and excuser.noted == []  # a beat's period: not noted
+    assert dog.check(0.1) == [] and ("bridge", 0.1) in excuser.noted and excuser.since == 0.0  # quiet > 60 ms
     assert dog.check(0.5) == [] and {s for s, _ in dog.excused} == {"bridge", "gripper"}
     dog.liveliness("gripper", False, 0.6)
     faults = dog.check(0.6)
@@ -172,9 +208,12 @@ def test_a_starved_delivery_path_excuses_every_service_but_a_running_one_excuses
     adapter.note("bridge", 1.1)
     why = adapter.excuse("bridge", 1.1)
     assert why is not None and "delivery path" in why and "pid 91" in why
-    fake.samples[91] = SchedSample(0.0, 0.065, "S")  # the router ran again: 5 of 100 ms
+    assert fake.all_threads == {11: False, 90: True, 91: True}
+    fake.samples[91] = SchedSample(0.0, 0.065, "S")  # the router ran again: 5 of 100 ms ...
     adapter.note("bridge", 1.2)
-    assert adapter.excuse("bridge", 1.2) is None
+    assert adapter.excuse("bridge", 1.2) is not None  # ... but 65 of the spell's 200 ms waited
+    adapter.note("bridge", 1.3)  # 65 of 300 ms
+    assert adapter.excuse("bridge", 1.3) is None
     assert delivery_pids()[0] == os.getpid()
 
 
@@ -189,5 +228,43 @@ def test_a_refused_excuse_says_what_the_judge_saw():
     fake.samples[11] = SchedSample(0.0, 0.01, "S")
     adapter.note("bridge", 1.1)
     line = adapter.explain("bridge")
-    assert "pid 11 not starved: its threads waited 10 ms for a CPU in the last 100 ms (state S)" in line
+    assert "pid 11 not starved: its threads waited 10 ms for a CPU in 100 ms in the last window (state S)" in line
     assert "path pid 90 not starved: its threads waited 0 ms" in line
+
+
+_NATIVE_NAMED_SPIN = (
+    "import os, sys, threading\n"
+    "def spin():\n"
+    "    with open(f'/proc/self/task/{threading.get_native_id()}/comm', 'w') as f:\n"
+    "        f.write('app-0')  # named as Zenoh names its worker\n"
+    "    os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), 19)\n"
+    "    while True:\n"
+    "        pass\n"
+    "threading.Thread(target=spin, daemon=True).start()\n"
+    "threading.Event().wait()  # the main thread blocked for good, as in a deadlock\n")
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="needs Linux CPU affinity")
+def test_a_blocked_service_whose_native_thread_is_starved_is_not_excused():
+    """A deadlocked service whose Zenoh-like thread waits for a CPU: its Python threads waited
+    nothing, so it is not starved; the same process judged on all threads (as the delivery
+    path is) would be."""
+    cpu = sorted(os.sched_getaffinity(0))[0]
+    hog = _spinner(0, cpu)
+    blocked = subprocess.Popen([sys.executable, "-c", _NATIVE_NAMED_SPIN])
+    try:
+        os.sched_setaffinity(blocked.pid, {cpu})
+        assert wait_until(lambda: len(os.listdir(f"/proc/{blocked.pid}/task")) >= 2, 5.0)
+        time.sleep(0.2)
+        service, path = StarvationJudge(), StarvationJudge(path_pids=(blocked.pid,))
+        t0 = time.monotonic()
+        for judge in (service, path):
+            judge.note(blocked.pid, t0)
+        time.sleep(0.3)
+        now = time.monotonic()
+        assert path.excuse(blocked.pid, now) is not None, path.explain(blocked.pid)
+        assert service.excuse(blocked.pid, now) is None, service.explain(blocked.pid)
+    finally:
+        for proc in (hog, blocked):
+            proc.kill()
+            proc.wait(5.0)
