@@ -54,8 +54,7 @@ ReceiverPhase = Literal["resting", "reaching", "contact"]
 #: Dropping is the thesis's dropping (§3.3: the experimenter "tries to touch and pull the mug
 #: softly"; §3.5: the pull rises to 2 N over 0.5 s): a 3 N hook built over 0.5 s. The
 #: Monte-Carlo benchmark's harsher dropping receivers (up to 20–30 N within 0.1 s) defeat every
-#: reacting controller with the simulated actuator (25 Hz loop, 50 N/s): see the README's
-#: Fail-safe gripper section.
+#: reacting controller with the simulated actuator (25 Hz loop, 50 N/s): see docs/gripper.md.
 SCENE_BEHAVIOUR_DEFAULTS: dict[str, dict[str, float]] = {
     "dropping": {"grasp_strength_n": 3.0, "transfer_s": 0.5},
 }

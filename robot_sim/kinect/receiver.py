@@ -4,7 +4,7 @@ Body proportions are fractions of the standing height H after Drillis & Contini 
 ("Body segment parameters", Table of segment lengths as fractions of height), with the arm
 lengths adjusted so that the arm span (fingertip to fingertip) equals H, as it does on
 average in adults. The same table is what the tracker's body-dimension estimator assumes,
-and it is stated in the README (Tracker).
+and it is stated in docs/sim_kinect.md (the simulated Kinect).
 
 Frames: `base` (x forward from Baxter, y left, z up), metres. The receiver stands (or sits)
 across the table facing Baxter (−x); facing −x, its right hand side is +y. Its right

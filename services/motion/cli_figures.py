@@ -1,4 +1,4 @@
-"""Command line that writes the motion figures of the README: ``python -m services.motion.figures
+"""Command line that writes the motion figures of docs/motion.md: ``python -m services.motion.figures
 [OUT_DIR]`` (default docs/img); prints each file written."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Figures of the motion service (matplotlib, Agg backend).
 
-`python -m services.motion.figures [OUT_DIR]` writes the README figures
+`python -m services.motion.figures [OUT_DIR]` writes the docs/motion.md figures
 (`docs/img/motion_*.png` by default) from real planned motions.
 """
 

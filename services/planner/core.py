@@ -11,7 +11,7 @@ lean and shoulder protraction of a real reach. With a shoulder fixed over the fe
 (span-scaled Drillis & Contini chain, 0.34 H shoulder → grasp) is shorter than the published
 functional forward reach, and at the thesis's 100 cm separation the two workspaces overlap
 so little that the optimum sits on a reach limit: the "receiver sitting → lower point"
-finding then fails (see the README (Planner)). The robot giver's shoulder stays where Baxter's is.
+finding then fails (see docs/planner.md). The robot giver's shoulder stays where Baxter's is.
 
 Upper-arm cap (`ModelConfig.max_upper_arm_elevation_deg`, default 90°: upper arm at most
 horizontal): the joint-torque cost is symmetric about the horizontal, so where a receiver's

@@ -385,7 +385,7 @@ def _check_niced_services_are_report_only(services: tuple[ServiceSpec, ...], pat
     The supervisor makes a protective stop when a critical service's heartbeat is 0.25 s old.
     The heartbeat thread needs its process's GIL; in a niced process the main thread that holds
     it is preempted more often and for longer, so a live service falls silent that long (three
-    false stops blamed the nice-5 tracker, README "Why these priorities"). Only services whose
+    false stops blamed the nice-5 tracker, docs/launcher_perf.md "Why these priorities"). Only services whose
     loss is reported (``watch = "report"``, e.g. the recorder) may be niced."""
     supervisor = next((s for s in services if s.name == "supervisor" and s.enabled), None)
     if supervisor is None:

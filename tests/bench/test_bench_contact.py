@@ -87,6 +87,6 @@ def test_bench_contact():
     path = save("contact", results)
     print(f"wrote {path}")
     # Generous targets (DESIGN §9): the batch target; the single-episode floats path is
-    # reported, not asserted (see the README (Contact simulator) for why it misses 200x).
+    # reported, not asserted (see docs/contact.md for why it misses 200x).
     assert res.wall_time_s <= 120.0
     assert per_ep_rtf >= 200.0

@@ -4,7 +4,7 @@
   pinocchio forward kinematics (independent of the motion service's PlaCo model).
 - A MotionStop mid-reach: time from the stop's publication to the arm at rest in JointState
   (every joint below `REST_SPEED_RAD_S`), over repeated runs; reported, and bounded loosely
-  (the DESIGN target of 50 ms is not met with the sim servo's lag, see the README (Motion)).
+  (the DESIGN target of 50 ms is not met with the sim servo's lag, see docs/motion.md).
 """
 
 from __future__ import annotations
@@ -133,6 +133,6 @@ def test_reaches_a_transfer_pose_and_a_stop_halts_it(stack, make_node):
     out.mkdir(parents=True, exist_ok=True)
     (out / "motion_stop.json").write_text(json.dumps(summary, indent=1))
     # DESIGN §8 asks for p99 ≤ 50 ms; with the sim's first-order servo (τ = 50 ms) the measured
-    # p99 was ~150–250 ms before the bridge honoured feed-forward, ~80 ms now (README, Motion). This bound catches a stop that does not act at all
+    # p99 was ~150–250 ms before the bridge honoured feed-forward, ~80 ms now (docs/motion.md). This bound catches a stop that does not act at all
     # (a coasting arm would need the rest of the reach, ~0.7 s).
     assert summary["stop_to_rest_ms_p99"] <= 350.0, summary

@@ -202,7 +202,7 @@ def test_a_lagging_arm_comes_to_rest_after_a_stop(controller, q_pick, motion_con
     the sent commands; after a stop mid-reach its speed falls below 0.01 rad/s.
 
     Measured here: ~150 ms (a coasting servo needs τ ln(v/0.01) ≈ 230 ms from 1 rad/s); the
-    DESIGN target of 50 ms is NOT met with this servo model (see the README (Motion))."""
+    DESIGN target of 50 ms is NOT met with this servo model (see docs/motion.md)."""
     from robot_sim.arm import SimulatedArm
 
     tau, dt = motion_config.servo_lag_s, motion_config.period_s

@@ -55,7 +55,7 @@ def test_random_reachable_targets_within_1mm_and_1deg(arm_ik, pin_arm):
         assert np.all(result.q_rad <= arm_ik.upper_rad + 1e-6)
     rate = solved / n
     print(f"IK success rate on {n} random reachable poses: {rate:.1%}")
-    assert rate >= 0.93  # measured 98 % on 200 poses (the README (Motion)); failures are reported
+    assert rate >= 0.93  # measured 98 % on 200 poses (docs/motion.md); failures are reported
 
 
 def test_upright_targets_over_the_table_are_all_solved(arm_ik, pin_arm):

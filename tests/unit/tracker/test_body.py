@@ -1,6 +1,6 @@
 """Body dimensions from noisy skeletons of synthetic bodies of known size.
 
-Tolerances (stated in the README (Tracker)): height ±4 cm standing (from the head's height) and
+Tolerances (stated in docs/tracker.md): height ±4 cm standing (from the head's height) and
 ±8 cm sitting (from noisy leg segments), arm span ±8 cm, shoulder height ±3 cm, posture exact,
 from 90 frames (3 s) with 50–100 mm joint jitter.
 """
