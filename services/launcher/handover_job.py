@@ -116,7 +116,7 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
     `services.runtime.sched.MAX_EXCUSED_S`; a stopped or hung one still is at
     `SUPERVISOR_SILENT_S`; nor while the processes its states pass through (`delivery_pids`:
     the router, this one) are starved."""
-    judge = StarvationJudge(path_pids=delivery_pids) if supervisor_pid is not None else None
+    judge = StarvationJudge() if supervisor_pid is not None else None
     excused_log_s = -math.inf
     watch = EpisodeWatch()
     # Read at this loop's 50 Hz tick; only a summary wakes it early.

@@ -8,22 +8,29 @@ it says whether a process is stopped (``/proc/PID/stat`` state ``T``/``t``).
 
 `StarvationJudge.excuse(pid, now_s)` answers for one watched process:
 
-- **starved** (excused): its Python threads together waited on the run queue for at least
-  `STARVED_FRACTION` of the time, over the whole quiet spell (from the first reading, taken
-  once the process has been quiet for a beat) or over the last window (≥ `WINDOW_S`). A frozen
-  (SIGSTOP) process never waits on the run queue; nor does one blocked on a lock or an I/O,
-  nor one that spins on a CPU on a free machine (that one runs): none of those is excused.
-- otherwise, or when the process is stopped, gone, or not readable: not excused.
+- **stopped** (never excused, seen at once): state ``T`` — a SIGSTOP, the freeze of the fault
+  matrix — or gone.
+- **starved** (excused): over the whole quiet spell (from the first reading, taken once the
+  process has been quiet for a beat) or over the last window (≥ `WINDOW_S`), either
+  - its threads together waited on the run queue for at least `STARVED_FRACTION` of the time, or
+  - the machine was short of CPU: some task waited for a CPU (``/proc/pressure/cpu``)
+    at least `PRESSURED_FRACTION` of the time, or the host took (steal) `STARVED_FRACTION`.
+- otherwise not excused: a blocked, deadlocked or spinning process on a machine with CPU to
+  spare.
 
-Only the threads that can send a heartbeat count for a service: the Python threads (those
-named as the process is; Zenoh's own threads, named ``app-0``, ``rx-0`` …, run without the
-interpreter and wait on the run queue for every sample they receive, so on a busy machine
-they could make a deadlocked process look starved). The processes of the delivery path (below)
-are judged on all their threads.
+Why the machine's pressure counts. The kernel adds a thread's run-queue wait to ``schedstat``
+only when the thread gets a CPU: a process that is waiting *now* shows none of that wait. Beside
+two busy loops, the watcher read "0 ms waited in the last 90 ms (state R)" for a service whose
+own report, once it ran, said its main thread had waited 175 ms for a CPU (a heartbeat is
+written by a Python thread, which may wait on the GIL behind a thread that waits for a CPU, and
+sent by Zenoh's worker thread). Half of the faults run beside two hogs ended in such false stops.
+The pressure is machine-wide and up to date at every read. The price: on a machine short of CPU,
+a hung (not stopped) process is caught at `MAX_EXCUSED_S` rather than at its time-out; a
+stopped or killed one is caught as fast as ever.
 
 Why the whole spell: a service that missed its beat because it waited for a CPU may be running
 again by the time the watcher judges (its late beat on the way); the last window alone then
-shows a running process, and the silence was judged a fault although starvation caused it.
+shows a running process.
 
 A message also crosses the router and the watcher's own receive threads: when either of them is
 starved, every service looks silent at once although none is. `excuse_path(pids, now_s)` judges
@@ -38,7 +45,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-from services.runtime.starvation import parse_schedstat
+from services.runtime.starvation import parse_schedstat, parse_steal
 
 #: Environment variable through which the launcher gives its children the router's pid.
 ROUTER_PID_ENV = "HANDOVER_ROUTER_PID"
@@ -47,10 +54,14 @@ WINDOW_S = 0.08
 #: A reading older than this starts a new window instead of closing one (an earlier quiet
 #: spell's), s.
 STALE_BASE_S = 4 * WINDOW_S
-#: A process whose Python threads waited on the run queue for at least this fraction of the
+#: A process whose threads waited on the run queue for at least this fraction of the
 #: time judged was starved of CPU, not frozen (a frozen or blocked one waits 0; one runnable
 #: thread among four on two CPUs waits about half the time, among three about a third).
 STARVED_FRACTION = 0.3
+#: A machine on which some task waited for a CPU (``/proc/pressure/cpu``, ``some``) at least
+#: this fraction of the time, or whose host took (steal) at least `STARVED_FRACTION` of it,
+#: could not run a silent process on time either: its silence is excused unless it is stopped.
+PRESSURED_FRACTION = 0.5
 #: A silence longer than this is a fault even when the process was starved, s.
 MAX_EXCUSED_S = 1.0
 _STOPPED_STATES = frozenset("TtZXx")
@@ -64,11 +75,18 @@ class SchedSample:
         at_s: local monotonic time of the reading, s.
         queue_wait_s: run-queue wait of all its threads so far, s.
         state: the main thread's state letter (``R``, ``S``, ``D``, ``T`` …).
+        pressure_s: the machine's CPU pressure so far (``/proc/pressure/cpu``, ``some``
+            total: time during which at least one task waited for a CPU), s; None when the
+            kernel does not say.
+        steal_s: time the host took from this virtual machine so far, per CPU, s; None when
+            not known.
     """
 
     at_s: float
     queue_wait_s: float
     state: str
+    pressure_s: float | None = None
+    steal_s: float | None = None
 
 
 def parse_state(stat_text: str) -> str | None:
@@ -79,21 +97,15 @@ def parse_state(stat_text: str) -> str | None:
     return stat_text[close + 2]
 
 
-def read_sched(pid: int, at_s: float, all_threads: bool = True, proc_root: str = "/proc") -> SchedSample | None:
-    """`SchedSample` of process `pid` now (None when it is gone or unreadable).
-
-    `all_threads=False`: count only the threads named as the process is (a Python process's
-    own threads; native libraries such as Zenoh name theirs)."""
+def read_sched(pid: int, at_s: float, proc_root: str = "/proc") -> SchedSample | None:
+    """`SchedSample` of process `pid` now (None when it is gone or unreadable)."""
     base = f"{proc_root}/{pid}"
     try:
         with open(f"{base}/stat", "rb") as f:
             state = parse_state(f.read(512).decode("ascii", "replace"))
-        own_name = None if all_threads else _comm(base)
         wait_s = 0.0
         for tid in os.listdir(f"{base}/task"):
             try:
-                if own_name is not None and _comm(f"{base}/task/{tid}") != own_name:
-                    continue
                 with open(f"{base}/task/{tid}/schedstat", "rb") as f:
                     wait = parse_schedstat(f.read(128).decode("ascii", "replace"))
             except OSError:  # the thread ended meanwhile
@@ -103,21 +115,62 @@ def read_sched(pid: int, at_s: float, all_threads: bool = True, proc_root: str =
         return None
     if state is None:
         return None
-    return SchedSample(at_s, wait_s, state)
+    return SchedSample(at_s, wait_s, state, *read_machine(proc_root))
 
 
-def _comm(path: str) -> str:
-    with open(f"{path}/comm", "rb") as f:
-        return f.read(64).strip().decode("ascii", "replace")
+def parse_pressure_some(text: str) -> float | None:
+    """The ``some`` total of ``/proc/pressure/cpu``, s (None when the text is not that)."""
+    for line in text.splitlines():
+        fields = line.split()
+        if fields and fields[0] == "some":
+            for field in fields[1:]:
+                if field.startswith("total=") and field[6:].isdigit():
+                    return int(field[6:]) / 1e6
+    return None
+
+
+def read_machine(proc_root: str = "/proc") -> tuple[float | None, float | None]:
+    """(CPU pressure `some` total, steal per CPU) of the machine so far, s (None: unknown)."""
+    try:
+        with open(f"{proc_root}/pressure/cpu", "rb") as f:
+            pressure = parse_pressure_some(f.read(256).decode("ascii", "replace"))
+    except OSError:
+        pressure = None
+    try:
+        with open(f"{proc_root}/stat", "rb") as f:
+            steal = parse_steal(f.read(256).decode("ascii", "replace").split("\n", 1)[0])
+    except OSError:
+        steal = None
+    return pressure, steal
+
+
+def _delta(older: float | None, newer: float | None) -> float:
+    return 0.0 if older is None or newer is None else max(0.0, newer - older)
 
 
 def starved(older: SchedSample, newer: SchedSample, fraction: float = STARVED_FRACTION) -> bool:
-    """True when, between the two samples, the process waited on the run queue for at least
-    `fraction` of the time and is not stopped now."""
+    """True when, between the two samples, the process is not stopped now and either its
+    threads waited on the run queue for at least `fraction` of the time, or the machine was
+    short of CPU (some task waited at least `PRESSURED_FRACTION` of the time, or the host
+    took at least `fraction` of it)."""
     span = newer.at_s - older.at_s
     if span <= 0.0 or newer.state in _STOPPED_STATES:
         return False
-    return newer.queue_wait_s - older.queue_wait_s >= fraction * span
+    return (newer.queue_wait_s - older.queue_wait_s >= fraction * span
+            or _delta(older.pressure_s, newer.pressure_s) >= PRESSURED_FRACTION * span
+            or _delta(older.steal_s, newer.steal_s) >= fraction * span)
+
+
+def describe(older: SchedSample, newer: SchedSample) -> str:
+    """What the two samples say (one clause, for log lines)."""
+    span = newer.at_s - older.at_s
+    parts = [f"its threads waited {1000.0 * (newer.queue_wait_s - older.queue_wait_s):.0f} ms for a CPU"]
+    if older.pressure_s is not None and newer.pressure_s is not None and span > 0.0:
+        parts.append(f"some task waited for a CPU {100.0 * _delta(older.pressure_s, newer.pressure_s) / span:.0f} % "
+                     "of the time")
+    if _delta(older.steal_s, newer.steal_s) > 0.0:
+        parts.append(f"the host took {1000.0 * _delta(older.steal_s, newer.steal_s):.0f} ms")
+    return ", ".join(parts) + f" in {1000.0 * span:.0f} ms"
 
 
 class StarvationJudge:
@@ -129,19 +182,13 @@ class StarvationJudge:
 
     Args:
         read: `read_sched`-like reader (tests pass a fake).
-        path_pids: processes of the delivery path, judged on all their threads (the others on
-            their Python threads only).
     """
 
-    def __init__(self, read=read_sched, path_pids: tuple[int, ...] = ()) -> None:
+    def __init__(self, read=read_sched) -> None:
         self._read = read
-        self.path_pids = tuple(path_pids)
         self._first: dict[int, SchedSample] = {}  # of the quiet spell
         self._base: dict[int, SchedSample] = {}  # of the window being measured
         self._verdict: dict[int, tuple[bool, str]] = {}
-
-    def _sample(self, pid: int, now_s: float) -> SchedSample | None:
-        return self._read(pid, now_s, all_threads=pid in self.path_pids)
 
     def note(self, pid: int, now_s: float, quiet_since_s: float | None = None) -> None:
         """Take a reading of `pid` if the last is at least `WINDOW_S` old, and judge the
@@ -158,7 +205,7 @@ class StarvationJudge:
         if base is not None and now_s - base.at_s > STALE_BASE_S:  # from an earlier quiet spell
             self.forget(pid)
             base = None
-        sample = self._sample(pid, now_s)
+        sample = self._read(pid, now_s)
         if sample is None:
             self.forget(pid)
             self._verdict[pid] = (False, "process not readable")
@@ -174,9 +221,7 @@ class StarvationJudge:
         for older, what in ((first, "since it went quiet"), (base, "in the last window")):
             if starved(older, sample):
                 break
-        waited = sample.queue_wait_s - older.queue_wait_s
-        why = (f"its threads waited {1000.0 * waited:.0f} ms for a CPU in {1000.0 * (sample.at_s - older.at_s):.0f} ms "
-               f"{what} (state {sample.state})")
+        why = f"{describe(older, sample)} {what} (state {sample.state})"
         return starved(older, sample), why
 
     def forget(self, pid: int) -> None:
@@ -191,7 +236,7 @@ class StarvationJudge:
         verdict = self._verdict.get(pid)
         if verdict is None or not verdict[0]:
             return None
-        fresh = self._sample(pid, now_s)  # stopped since the last window? (SIGSTOP is never excused)
+        fresh = self._read(pid, now_s)  # stopped since the last window? (SIGSTOP is never excused)
         if fresh is None or fresh.state in _STOPPED_STATES:
             return None
         return verdict[1]
@@ -241,7 +286,6 @@ class ServiceStarvation:
     def __init__(self, judge: StarvationJudge | None = None, check_pid=runs_a_service,
                  path_pids: tuple[int, ...] = ()) -> None:
         self.judge = judge or StarvationJudge()
-        self.judge.path_pids = tuple(dict.fromkeys((*self.judge.path_pids, *path_pids)))
         self._check_pid = check_pid
         self.path_pids = path_pids
         self._pids: dict[str, int] = {}
