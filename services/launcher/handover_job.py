@@ -155,6 +155,8 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
         node.wait(WATCH_PERIOD_S)
         now_s = time.monotonic()
         late, last_loop_s = now_s - last_loop_s > SELF_STALL_S, now_s
+        if judge is not None:
+            judge.tick(now_s)
         for rx in truth.drain():
             watch.truth(rx.msg)
         take_states()

@@ -13,8 +13,10 @@ it says whether a process is stopped (``/proc/PID/stat`` state ``T``/``t``).
 - **starved** (excused): over the whole quiet spell (from the first reading, taken once the
   process has been quiet for a beat) or over the last window (≥ `WINDOW_S`), either
   - its threads together waited on the run queue for at least `STARVED_FRACTION` of the time, or
-  - the machine was short of CPU: some task waited for a CPU (``/proc/pressure/cpu``)
-    at least `PRESSURED_FRACTION` of the time, or the host took (steal) `STARVED_FRACTION`.
+  - the machine was short of CPU since the process went quiet (`services.runtime.machine_load`:
+    some task waited for a CPU at least half of the time, or the host took 30 % of it), judged
+    from a reading taken before the silence began (the watcher's `tick`), so that a watcher
+    starved through the silence itself still judges it right.
 - otherwise not excused: a blocked, deadlocked or spinning process on a machine with CPU to
   spare.
 
@@ -45,7 +47,8 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-from services.runtime.starvation import parse_schedstat, parse_steal
+from services.runtime.machine_load import MachineHistory
+from services.runtime.starvation import parse_schedstat
 
 #: Environment variable through which the launcher gives its children the router's pid.
 ROUTER_PID_ENV = "HANDOVER_ROUTER_PID"
@@ -58,10 +61,6 @@ STALE_BASE_S = 4 * WINDOW_S
 #: time judged was starved of CPU, not frozen (a frozen or blocked one waits 0; one runnable
 #: thread among four on two CPUs waits about half the time, among three about a third).
 STARVED_FRACTION = 0.3
-#: A machine on which some task waited for a CPU (``/proc/pressure/cpu``, ``some``) at least
-#: this fraction of the time, or whose host took (steal) at least `STARVED_FRACTION` of it,
-#: could not run a silent process on time either: its silence is excused unless it is stopped.
-PRESSURED_FRACTION = 0.5
 #: A silence longer than this is a fault even when the process was starved, s.
 MAX_EXCUSED_S = 1.0
 _STOPPED_STATES = frozenset("TtZXx")
@@ -75,18 +74,11 @@ class SchedSample:
         at_s: local monotonic time of the reading, s.
         queue_wait_s: run-queue wait of all its threads so far, s.
         state: the main thread's state letter (``R``, ``S``, ``D``, ``T`` …).
-        pressure_s: the machine's CPU pressure so far (``/proc/pressure/cpu``, ``some``
-            total: time during which at least one task waited for a CPU), s; None when the
-            kernel does not say.
-        steal_s: time the host took from this virtual machine so far, per CPU, s; None when
-            not known.
     """
 
     at_s: float
     queue_wait_s: float
     state: str
-    pressure_s: float | None = None
-    steal_s: float | None = None
 
 
 def parse_state(stat_text: str) -> str | None:
@@ -115,62 +107,16 @@ def read_sched(pid: int, at_s: float, proc_root: str = "/proc") -> SchedSample |
         return None
     if state is None:
         return None
-    return SchedSample(at_s, wait_s, state, *read_machine(proc_root))
-
-
-def parse_pressure_some(text: str) -> float | None:
-    """The ``some`` total of ``/proc/pressure/cpu``, s (None when the text is not that)."""
-    for line in text.splitlines():
-        fields = line.split()
-        if fields and fields[0] == "some":
-            for field in fields[1:]:
-                if field.startswith("total=") and field[6:].isdigit():
-                    return int(field[6:]) / 1e6
-    return None
-
-
-def read_machine(proc_root: str = "/proc") -> tuple[float | None, float | None]:
-    """(CPU pressure `some` total, steal per CPU) of the machine so far, s (None: unknown)."""
-    try:
-        with open(f"{proc_root}/pressure/cpu", "rb") as f:
-            pressure = parse_pressure_some(f.read(256).decode("ascii", "replace"))
-    except OSError:
-        pressure = None
-    try:
-        with open(f"{proc_root}/stat", "rb") as f:
-            steal = parse_steal(f.read(256).decode("ascii", "replace").split("\n", 1)[0])
-    except OSError:
-        steal = None
-    return pressure, steal
-
-
-def _delta(older: float | None, newer: float | None) -> float:
-    return 0.0 if older is None or newer is None else max(0.0, newer - older)
+    return SchedSample(at_s, wait_s, state)
 
 
 def starved(older: SchedSample, newer: SchedSample, fraction: float = STARVED_FRACTION) -> bool:
-    """True when, between the two samples, the process is not stopped now and either its
-    threads waited on the run queue for at least `fraction` of the time, or the machine was
-    short of CPU (some task waited at least `PRESSURED_FRACTION` of the time, or the host
-    took at least `fraction` of it)."""
+    """True when, between the two samples, the process waited on the run queue for at least
+    `fraction` of the time and is not stopped now."""
     span = newer.at_s - older.at_s
     if span <= 0.0 or newer.state in _STOPPED_STATES:
         return False
-    return (newer.queue_wait_s - older.queue_wait_s >= fraction * span
-            or _delta(older.pressure_s, newer.pressure_s) >= PRESSURED_FRACTION * span
-            or _delta(older.steal_s, newer.steal_s) >= fraction * span)
-
-
-def describe(older: SchedSample, newer: SchedSample) -> str:
-    """What the two samples say (one clause, for log lines)."""
-    span = newer.at_s - older.at_s
-    parts = [f"its threads waited {1000.0 * (newer.queue_wait_s - older.queue_wait_s):.0f} ms for a CPU"]
-    if older.pressure_s is not None and newer.pressure_s is not None and span > 0.0:
-        parts.append(f"some task waited for a CPU {100.0 * _delta(older.pressure_s, newer.pressure_s) / span:.0f} % "
-                     "of the time")
-    if _delta(older.steal_s, newer.steal_s) > 0.0:
-        parts.append(f"the host took {1000.0 * _delta(older.steal_s, newer.steal_s):.0f} ms")
-    return ", ".join(parts) + f" in {1000.0 * span:.0f} ms"
+    return newer.queue_wait_s - older.queue_wait_s >= fraction * span
 
 
 class StarvationJudge:
@@ -180,12 +126,19 @@ class StarvationJudge:
     quiet for a while (cheap: it reads only once per `WINDOW_S` per process), and
     `excuse(pid, now_s)` when one looks silent.
 
+    Call `tick(now_s)` at every tick of the watcher: it keeps the machine's CPU pressure, so that
+    a silence can be judged against the machine from before it began.
+
     Args:
         read: `read_sched`-like reader (tests pass a fake).
+        machine: the machine's readings (tests pass one with a fake reader).
     """
 
-    def __init__(self, read=read_sched) -> None:
+    def __init__(self, read=read_sched, machine: MachineHistory | None = None) -> None:
         self._read = read
+        self.machine = machine if machine is not None else MachineHistory()
+        self._since: dict[int, float] = {}  # when each quiet process was last heard from
+        self._machine_seen: dict[int, str] = {}  # what the machine did in its silence
         self._first: dict[int, SchedSample] = {}  # of the quiet spell
         self._base: dict[int, SchedSample] = {}  # of the window being measured
         self._verdict: dict[int, tuple[bool, str]] = {}
@@ -199,6 +152,8 @@ class StarvationJudge:
         first = self._first.get(pid)
         if first is not None and quiet_since_s is not None and first.at_s < quiet_since_s:
             self.forget(pid)
+        if quiet_since_s is not None:
+            self._since[pid] = quiet_since_s
         base = self._base.get(pid)
         if base is not None and now_s - base.at_s < WINDOW_S:
             return
@@ -221,11 +176,19 @@ class StarvationJudge:
         for older, what in ((first, "since it went quiet"), (base, "in the last window")):
             if starved(older, sample):
                 break
-        why = f"{describe(older, sample)} {what} (state {sample.state})"
+        waited_ms = 1000.0 * (sample.queue_wait_s - older.queue_wait_s)
+        why = (f"its threads waited {waited_ms:.0f} ms for a CPU in {1000.0 * (sample.at_s - older.at_s):.0f} ms "
+               f"{what} (state {sample.state})")
         return starved(older, sample), why
+
+    def tick(self, now_s: float) -> None:
+        """Keep the machine's figures (cheap: one reading per `SAMPLE_PERIOD_S` at most)."""
+        self.machine.observe(now_s)
 
     def forget(self, pid: int) -> None:
         """Drop what is known of `pid` (a process heard from again, or gone)."""
+        self._since.pop(pid, None)
+        self._machine_seen.pop(pid, None)
         self._first.pop(pid, None)
         self._base.pop(pid, None)
         self._verdict.pop(pid, None)
@@ -233,20 +196,27 @@ class StarvationJudge:
     def excuse(self, pid: int, now_s: float) -> str | None:
         """Why `pid`'s silence is starvation (one clause), or None when it is not excused."""
         self.note(pid, now_s)
-        verdict = self._verdict.get(pid)
-        if verdict is None or not verdict[0]:
-            return None
         fresh = self._read(pid, now_s)  # stopped since the last window? (SIGSTOP is never excused)
         if fresh is None or fresh.state in _STOPPED_STATES:
             return None
-        return verdict[1]
+        verdict = self._verdict.get(pid)
+        if verdict is not None and verdict[0]:
+            return verdict[1]
+        since_s = self._since.get(pid)
+        machine = None if since_s is None else self.machine.judge(since_s, now_s)
+        if machine is None:
+            self._machine_seen.pop(pid, None)
+            return None
+        self._machine_seen[pid] = machine[1]
+        return machine[1] if machine[0] else None
 
     def explain(self, pid: int) -> str:
         """The last judgement of `pid`, for the line that reports a silence not excused."""
         verdict = self._verdict.get(pid)
-        if verdict is None:
-            return "no window judged yet"
-        return ("starved: " if verdict[0] else "not starved: ") + verdict[1]
+        own = ("no window judged yet" if verdict is None
+               else ("starved: " if verdict[0] else "not starved: ") + verdict[1])
+        seen = self._machine_seen.get(pid)
+        return own if seen is None else f"{own}; {seen}"
 
     def excuse_path(self, pids: tuple[int, ...], now_s: float) -> str | None:
         """Why the delivery path (the router, the watcher itself) was starved, or None."""
@@ -309,6 +279,9 @@ class ServiceStarvation:
             self.judge.note(pid, now_s, quiet_since_s)
         for path_pid in self.path_pids:
             self.judge.note(path_pid, now_s, quiet_since_s)
+
+    def tick(self, now_s: float) -> None:
+        self.judge.tick(now_s)
 
     def excuse(self, service: str, now_s: float) -> str | None:
         pid = self._pids.get(service)

@@ -35,6 +35,9 @@ class Excuser(Protocol):
     def excuse(self, service: str, now_s: float) -> str | None:
         """Why its silence is starvation (one clause), or None."""
 
+    def tick(self, now_s: float) -> None:
+        """Called at every check: keep whatever must be known from before a silence began."""
+
 
 @dataclass(frozen=True)
 class Fault:
@@ -147,6 +150,8 @@ class Watchdog:
         excuser excuses are listed in `excused` instead)."""
         out = []
         self.excused = []
+        if self.excuser is not None:
+            self.excuser.tick(now_s)
         for name, w in self._w.items():
             if w.reported or not w.seen:
                 continue

@@ -11,9 +11,9 @@ import time
 
 import pytest
 
+from services.runtime.machine_load import MachineHistory, MachineReading
 from services.runtime.sched import (MAX_EXCUSED_S, SchedSample, ServiceStarvation, StarvationJudge, delivery_pids,
-                                    describe, parse_pressure_some, parse_state, read_machine, read_sched,
-                                    runs_a_service, starved)
+                                    parse_state, read_sched, runs_a_service, starved)
 from services.runtime.testing import wait_until
 from services.supervisor.watchdog import Watchdog
 
@@ -52,8 +52,8 @@ def test_the_judge_excuses_only_after_a_starved_window_and_never_a_stopped_proce
     fake.samples[7] = SchedSample(0.0, 1.0, "R")
     assert judge.excuse(7, 10.0) is None  # one reading: no window yet
     fake.samples[7] = SchedSample(0.0, 1.07, "R")
-    judge.note(7, 10.05)  # under a window: not read
-    assert fake.reads == 1
+    judge.note(7, 10.05)  # under a window: not read (excuse read it twice: a window and the state)
+    assert fake.reads == 2
     why = judge.excuse(7, 10.1)  # 70 ms of 100 on the run queue
     assert why is not None and "waited 70 ms" in why
     fake.samples[7] = SchedSample(0.0, 1.07, "T")  # SIGSTOP since the window: at once not excused
@@ -124,7 +124,7 @@ def test_only_a_process_running_a_module_of_the_stack_counts_as_a_service():
 
 class FixedExcuser:
     def __init__(self, why: str | None) -> None:
-        self.why, self.noted = why, []
+        self.why, self.noted, self.ticks = why, [], 0
 
     def note(self, service: str, now_s: float, quiet_since_s: float | None = None) -> None:
         self.noted.append((service, now_s))
@@ -133,6 +133,9 @@ class FixedExcuser:
     def excuse(self, service: str, now_s: float) -> str | None:
         return self.why
 
+    def tick(self, now_s: float) -> None:
+        self.ticks += 1
+
 
 def test_the_watchdog_excuses_a_starved_silence_up_to_its_bound_but_never_a_lost_service():
     excuser = FixedExcuser("its threads waited 200 ms for a CPU")
@@ -140,7 +143,7 @@ def test_the_watchdog_excuses_a_starved_silence_up_to_its_bound_but_never_a_lost
     for name in ("bridge", "gripper"):
         dog.liveliness(name, True, 0.0)
         dog.heartbeat(name, 0.0)
-    assert dog.check(0.05) == [] and excuser.noted == []  # a beat's period: not noted
+    assert dog.check(0.05) == [] and excuser.noted == [] and excuser.ticks == 1  # a beat's period: not noted
     assert dog.check(0.1) == [] and ("bridge", 0.1) in excuser.noted and excuser.since == 0.0  # quiet > 60 ms
     assert dog.check(0.5) == [] and {s for s, _ in dog.excused} == {"bridge", "gripper"}
     dog.liveliness("gripper", False, 0.6)
@@ -222,28 +225,40 @@ def test_a_refused_excuse_says_what_the_judge_saw():
 
 
 
-def test_the_machines_cpu_pressure_and_steal_are_read():
-    text = "some avg10=1.00 avg60=2.00 avg300=3.00 total=4809551227\nfull avg10=0.00 avg60=0.00 avg300=0.00 total=0\n"
-    assert parse_pressure_some(text) == 4809.551227
-    assert parse_pressure_some("full total=3") is None and parse_pressure_some("some total=x") is None
-    pressure, steal = read_machine()
-    if os.path.exists("/proc/pressure/cpu"):
-        assert pressure is not None and pressure >= 0.0
-    assert steal is not None and steal >= 0.0
-    assert read_machine("/nonexistent") == (None, None)
+class FakeMachine:
+    def __init__(self) -> None:
+        self.reading = MachineReading(0.0, 0.0, 0.0)
+
+    def __call__(self, at_s: float) -> MachineReading:
+        return MachineReading(at_s, self.reading.pressure_s, self.reading.steal_s)
 
 
-def test_a_machine_short_of_cpu_excuses_a_silence_but_never_a_stopped_process():
-    """schedstat counts a thread's wait only once it runs: a process waiting now shows none."""
-    a = SchedSample(10.0, 1.0, "R", pressure_s=50.0, steal_s=7.0)
-    quiet = SchedSample(10.1, 1.0, "R", pressure_s=50.06, steal_s=7.0)  # some task waited 60 % of the time
-    assert starved(a, quiet)
-    assert "waited 0 ms for a CPU, some task waited for a CPU 60 % of the time in 100 ms" in describe(a, quiet)
-    assert not starved(a, SchedSample(10.1, 1.0, "R", pressure_s=50.04, steal_s=7.0))  # 40 %
-    assert starved(a, SchedSample(10.1, 1.0, "S", pressure_s=50.0, steal_s=7.04))  # the host took 40 ms
-    assert "the host took 40 ms" in describe(a, SchedSample(10.1, 1.0, "S", pressure_s=50.0, steal_s=7.04))
-    assert not starved(a, SchedSample(10.1, 1.0, "T", pressure_s=50.1, steal_s=7.1))  # stopped: never
-    assert not starved(SchedSample(10.0, 1.0, "R"), SchedSample(10.1, 1.0, "R", pressure_s=50.1))  # unknown before
+def test_a_silence_on_a_machine_short_of_cpu_is_excused_even_when_the_watcher_judges_late():
+    """schedstat adds a thread's wait only once it runs: a process waiting now shows none. The
+    machine's pressure, read at the watcher's ticks from before the silence, says it."""
+    fake, machine = FakeReader(), FakeMachine()
+    judge = StarvationJudge(fake, MachineHistory(machine))
+    fake.samples[4] = SchedSample(0.0, 1.0, "R")
+    machine.reading = MachineReading(0.0, 10.0, 0.0)
+    judge.tick(1.00)  # the last tick before the watcher itself was starved
+    machine.reading = MachineReading(0.0, 10.17, 0.0)  # some task waited 170 of the next 210 ms
+    judge.note(4, 1.21, quiet_since_s=1.005)  # first note at the verdict: no window of the process
+    why = judge.excuse(4, 1.21)
+    assert why is not None and "short of CPU: some task waited for a CPU 81 % of 210 ms" in why
+    fake.samples[4] = SchedSample(0.0, 1.0, "T")  # stopped: never excused, whatever the machine did
+    assert judge.excuse(4, 1.22) is None
+
+
+def test_a_silence_on_a_machine_with_cpu_to_spare_is_not_excused():
+    fake, machine = FakeReader(), FakeMachine()
+    judge = StarvationJudge(fake, MachineHistory(machine))
+    fake.samples[4] = SchedSample(0.0, 1.0, "S")
+    machine.reading = MachineReading(0.0, 10.0, 0.0)
+    judge.tick(1.00)
+    machine.reading = MachineReading(0.0, 10.05, 0.0)  # 50 of 210 ms: a deadlock, not starvation
+    judge.note(4, 1.21, quiet_since_s=1.005)
+    assert judge.excuse(4, 1.21) is None
+    assert "some task waited for a CPU 24 % of 210 ms" in judge.explain(4)
 
 
 @pytest.mark.skipif(not os.path.exists("/proc/pressure/cpu"), reason="needs the kernel's CPU pressure (PSI)")
@@ -256,12 +271,13 @@ def test_on_a_saturated_machine_a_sleeping_process_is_excused_and_a_stopped_one_
         stopped.send_signal(signal.SIGSTOP)
         judge = StarvationJudge()
         t0 = time.monotonic()
-        for pid in (sleeper.pid, stopped.pid):
-            judge.note(pid, t0)
+        judge.tick(t0)
         time.sleep(0.3)
         now = time.monotonic()
+        for pid in (sleeper.pid, stopped.pid):
+            judge.note(pid, now, quiet_since_s=t0)
         why = judge.excuse(sleeper.pid, now)
-        assert why is not None and "some task waited for a CPU" in why, judge.explain(sleeper.pid)
+        assert why is not None and "short of CPU" in why, judge.explain(sleeper.pid)
         assert judge.excuse(stopped.pid, now) is None
     finally:
         for proc in (*hogs, sleeper, stopped):
