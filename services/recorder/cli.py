@@ -4,7 +4,11 @@
     handover-recorder --output run.rrd        # record to a given file
     handover-recorder --depth-every 1         # also every depth image (4.6 MB/s)
     handover-recorder inspect run.rrd         # rows per entity of a recording
+    handover-recorder finalise run.rrd        # add the footer to the file of a killed recorder
     rerun run.rrd                             # open it in the viewer
+
+Exit codes: 0 done; 1 a runtime failure (e.g. `finalise` given a file that is not a Rerun
+recording: one line, the file left unchanged); 2 a usage error (bad option, missing file).
 """
 
 from __future__ import annotations
@@ -54,10 +58,29 @@ def _inspect(args: argparse.Namespace) -> int:
     return 0
 
 
+def _finalise(args: argparse.Namespace) -> int:
+    from services.recorder.finalise import finalise, missing_file
+
+    paths = [Path(p) for p in args.recordings]
+    for path in paths:  # every path checked before any file is touched
+        if not path.is_file():
+            raise RecorderError(missing_file(path))
+    failed = 0
+    for path in paths:
+        try:
+            sys.stdout.write(finalise(path).line() + "\n")
+        except RecorderError as exc:
+            if len(paths) == 1:
+                raise
+            sys.stderr.write(f"{args.service_name}: error: {exc}\n")  # as `run_main` words it
+            failed += 1
+    return 1 if failed else 0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = base_parser("handover-recorder", "Record every key of the bus (depth images only when asked) to "
-                         "a Rerun .rrd (one file per run; valid when killed). Subcommand `inspect FILE` summarises "
-                         "one.")
+                         "a Rerun .rrd (one file per run; valid when killed). Subcommands: `inspect FILE` summarises "
+                         "one, `finalise FILE` adds the footer to the file of a killed recorder.")
     parser.add_argument("--output", help="recording file (.rrd); default: <output-dir>/handover-<run-id>.rrd")
     parser.add_argument("--output-dir", help="folder for recordings (default: the profile's, else recordings/)")
     parser.add_argument("--run-id", help="name of this run (default: the start time)")
@@ -67,8 +90,17 @@ def main(argv: list[str] | None = None) -> int:
     sub = parser.add_subparsers(dest="command")
     inspect = sub.add_parser("inspect", help="print the rows logged per entity of a recording")
     inspect.add_argument("recording", help="path to a .rrd file")
+    finalise = sub.add_parser(
+        "finalise", help="add Rerun's footer to a recording whose recorder was killed (rewritten in place, every "
+                         "complete message kept; prints what was kept)",
+        description="A recorder stopped normally finalises its file itself. One killed (SIGKILL, a crash) leaves "
+                    "it without the footer `rerun rrd verify` needs: this rewrites it with its footer, keeping every "
+                    "message that reached the disk (an incomplete last message is dropped, and said so), and prints "
+                    "what it kept. A file that already has its footer, or is not a Rerun recording, is left unchanged.")
+    finalise.add_argument("recordings", nargs="+", metavar="FILE.rrd", help="recording(s) to finalise")
     args = parser.parse_args(argv)
-    return run_main(_inspect if args.command == "inspect" else _record, args)
+    run = {"inspect": _inspect, "finalise": _finalise}.get(args.command, _record)
+    return run_main(run, args)
 
 
 if __name__ == "__main__":

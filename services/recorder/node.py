@@ -21,15 +21,18 @@ Start-up order (the launcher waits for the recorder before it starts anything el
 session, subscribe and declare the liveliness token first, and only then import Rerun and load
 Baxter's model; messages that arrive meanwhile wait in the channels. On SIGTERM/SIGINT the
 recorder keeps listening until the bus has been quiet for 0.15 s (at most 1 s: the last
-service's final messages may still be in flight), then writes and flushes before exit; on
-SIGKILL the file is valid up to the last flush.
+service's final messages may still be in flight), then writes, flushes and finalises the file
+(`finalise`: Rerun's footer, so that ``rerun rrd verify`` passes) before exit; on SIGKILL the
+file is readable up to the last flush, without footer (``handover-recorder finalise FILE``).
 
 This module imports neither Rerun nor NumPy at import time (start-up speed).
 """
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import signal
 import threading
 import time
 from collections.abc import Callable
@@ -121,11 +124,60 @@ def run_recorder(profile: Profile, output: Path, config: RecorderConfig | None =
             writer.sources = {}  # the channels go with their subscribers
             for subscriber in subscribers.values():
                 subscriber.undeclare()
-            writer.close()
+            finalised = close_and_finalise(writer)
             flush_ms = sorted(1e3 * s for s in stats.flush_s) or [0.0]
             log.info("recording closed", extra=kv(
                 output=str(output), messages=sum(stats.logged.values()), rejected=stats.rejected,
                 max_pending=stats.max_pending, unknown_keys=stats.unknown.count, flushes=len(stats.flush_s),
                 flush_ms_median=round(flush_ms[len(flush_ms) // 2], 2),
-                flush_ms_p99=round(flush_ms[min(len(flush_ms) - 1, int(0.99 * len(flush_ms)))], 2)))
+                flush_ms_p99=round(flush_ms[min(len(flush_ms) - 1, int(0.99 * len(flush_ms)))], 2),
+                finalised=finalised is not None,
+                **({} if finalised is None else {"chunks": finalised.kept.chunks,
+                                                 "finalise_s": round(finalised.seconds, 2)})))
     return 0
+
+
+def close_and_finalise(writer):
+    """Close the writer's file, then give it its footer (`finalise`); returns the
+    `FinaliseReport`, or None with a warning naming the command that finishes the job when
+    finalising failed or a second SIGINT/SIGTERM interrupted it (the launcher's SIGTERM comes
+    `term_timeout_s` after its SIGINT): the file is then complete, without footer. Every
+    message the writer wrote must be in the finalised file."""
+    from services.recorder.errors import RecorderError
+    from services.recorder.finalise import finalise
+
+    writer.close(finalise=False)  # everything written and flushed; a second signal is ignored here
+    try:
+        with _signals_interrupt():
+            report = finalise(writer.output)
+    except (RecorderError, FinaliseInterrupted) as exc:
+        log.warning("recording not finalised (complete, but without the footer `rerun rrd verify` "
+                    "needs): %s; run: handover-recorder finalise %s", exc, writer.output)
+        return None
+    written = {key: n for key, n in writer.stats.logged.items() if n}
+    if report.kept.bus_messages() != written:
+        log.warning("finalised recording differs from what was written", extra=kv(
+            output=str(writer.output), written=written, finalised=report.kept.bus_messages()))
+    return report
+
+
+class FinaliseInterrupted(Exception):
+    """A SIGINT/SIGTERM arrived while the recording was being finalised."""
+
+
+@contextlib.contextmanager
+def _signals_interrupt():
+    """While inside: SIGINT/SIGTERM raise `FinaliseInterrupted` (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum: int, _frame: object) -> None:
+        raise FinaliseInterrupted(f"{signal.Signals(signum).name} received while finalising")
+
+    previous = {sig: signal.signal(sig, interrupt) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)

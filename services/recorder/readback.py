@@ -1,7 +1,8 @@
 """Read a recording back with the Rerun SDK (for `handover-recorder inspect` and tests).
 
-The recorder writes its files without Rerun's footer (see `writer`): they are read in one pass
-with `RrdReader.stream()`; Rerun's warning about the missing footer is expected and silenced.
+Files are read in one pass with `RrdReader.stream()`, with or without Rerun's footer (the
+recorder adds it when it closes the file, `finalise`; a killed recorder's file has none: Rerun's
+warning about that is expected and silenced).
 `read_scalars` names the series of the ``bus/<key>`` entities (one component per message field,
 `bus_columns`) ``/bus/<key>/<field>[/<index>]``, as the recorder's earlier one-entity-per-number
 layout did.

@@ -6,9 +6,10 @@
   before they are dropped) and then stayed resident: ~90 MB RSS measured. With a purge delay of
   0 ms mimalloc returns freed pages at once: the URDF's lasting cost falls to ~13 MB.
   (Measured with the earlier one-entity-per-number recorder: ~12 % of its write throughput.)
-- ``RUST_LOG``: the recorder writes its file without Rerun's footer on purpose (see
-  `writer`); Rerun's file sink warns about that once at start-up. Silenced for that one module
-  only; every other Rerun warning still shows.
+- ``RUST_LOG``: the recorder streams its file without Rerun's footer on purpose and adds the
+  footer when it closes the file (see `writer`, `finalise`); Rerun's file sink warns about the
+  missing footer once at start-up. Silenced for that one module only; every other Rerun warning
+  still shows.
 
 mimalloc and Rerun's logger read these when the library loads, i.e. at the first
 ``import rerun`` of the process, so this module must be imported before that. Values already in

@@ -1,11 +1,12 @@
-"""The recorder as a real process: the file stays valid when the recorder is killed; depth images
-reach it only when asked."""
+"""The recorder as a real process: a file closed by SIGINT/SIGTERM passes `rerun rrd verify`; one
+killed with SIGKILL is readable, and `handover-recorder finalise` makes it verify with everything
+flushed before the kill; depth images reach it only when asked."""
 
 from __future__ import annotations
 
-import shutil
 import signal
 import subprocess
+import sys
 import time
 
 import numpy as np
@@ -13,6 +14,7 @@ import pytest
 
 from bus_schema import TOPICS, topics
 from services.recorder.config import parse_config
+from services.recorder.finalise import rerun_cli
 from services.recorder.readback import entity_row_counts, read_scalars, read_times
 from services.runtime.testing import ServiceProcess, wait_alive, wait_until
 
@@ -27,23 +29,15 @@ def _publish_forces(node, n, period_s=0.005):
         time.sleep(period_s)
 
 
-def _rerun_verify(path):
-    """Rerun's own check. The recorder writes no footer (memory, see services/recorder/writer.py),
-    which `rrd verify` requires: `rrd optimize` first decodes every chunk of the file and writes
-    a copy with a footer, then `rrd verify` checks that copy."""
-    import sys
-    from pathlib import Path
+def _rerun_verify(path) -> subprocess.CompletedProcess:
+    """Rerun's own check of the file as it is (it needs the footer the recorder adds at close)."""
+    return subprocess.run([rerun_cli(), "rrd", "verify", str(path)], capture_output=True, text=True, timeout=60)
 
-    beside = Path(sys.executable).with_name("rerun")
-    exe = str(beside) if beside.exists() else shutil.which("rerun")
-    if exe is None:
-        pytest.skip("rerun CLI not on PATH")
-    copy = Path(path).with_suffix(".optimized.rrd")
-    optimized = subprocess.run([exe, "rrd", "optimize", str(path), "-o", str(copy)], capture_output=True, text=True,
-                               timeout=120)
-    if optimized.returncode != 0:
-        return optimized
-    return subprocess.run([exe, "rrd", "verify", str(copy)], capture_output=True, text=True, timeout=120)
+
+def _finalise(*paths) -> subprocess.CompletedProcess:
+    """`handover-recorder finalise PATH…` as a real process."""
+    return subprocess.run([sys.executable, "-m", "services.recorder", "finalise", *map(str, paths)],
+                          capture_output=True, text=True, timeout=60)
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
@@ -64,10 +58,12 @@ def test_recording_complete_after_sigterm(bus, make_node, tmp_path, sig):
     latency_s = (receives - stamps) / 1e9
     assert len(latency_s) == 200 and latency_s.min() >= 0.0 and np.median(latency_s) < 0.05, latency_s
     assert any(e.startswith("/transforms") or "baxter" in e for e in entity_row_counts(out))
-    assert _rerun_verify(out).returncode == 0
+    verify = _rerun_verify(out)
+    assert verify.returncode == 0, verify.stdout + verify.stderr  # finalised at close: the footer is there
+    assert "finalised=True" in rec.log_text(), rec.log_text()
 
 
-def test_recording_readable_after_sigkill(bus, make_node, tmp_path):
+def test_recording_after_sigkill_is_readable_and_finalise_makes_it_verify(bus, make_node, tmp_path):
     profile, router = bus
     out = tmp_path / "killed.rrd"
     with ServiceProcess("services.recorder", profile, ["--output", str(out), "--no-urdf"]) as rec:
@@ -83,6 +79,36 @@ def test_recording_readable_after_sigkill(bus, make_node, tmp_path):
     # Everything flushed before the kill is there and intact.
     assert np.array_equal(values, np.arange(len(values), dtype=float))
     assert len(values) == 150
+    rows_before = entity_row_counts(out, include_static=False)
+    verify = _rerun_verify(out)
+    assert verify.returncode == 1 and "footer" in verify.stdout + verify.stderr  # killed: no footer
+
+    done = _finalise(out)
+
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert done.stdout.startswith(f"finalised {out}: kept ") and done.stdout.count("\n") == 1, done.stdout
+    heartbeats = rows_before.get("/bus/runtime/heartbeat", 0)
+    assert f"kept {150 + heartbeats} bus messages" in done.stdout, (done.stdout, rows_before)
+    verify = _rerun_verify(out)
+    assert verify.returncode == 0, verify.stdout + verify.stderr
+    values = read_scalars(out, "/bus/sensors/wrist_wrench/force_n/0")["/bus/sensors/wrist_wrench/force_n/0"][1]
+    assert values.tolist() == [float(i) for i in range(150)]
+    assert entity_row_counts(out, include_static=False) == rows_before  # nothing lost, nothing added
+
+
+def test_finalise_refuses_a_file_that_is_not_a_recording(tmp_path):
+    notes = tmp_path / "notes.rrd"
+    notes.write_text("not a recording\n")
+    done = _finalise(notes)
+    assert done.returncode == 1, done.stdout + done.stderr
+    lines = (done.stdout + done.stderr).strip().splitlines()
+    assert len(lines) == 1 and "is not a Rerun recording" in lines[0] and "left unchanged" in lines[0], lines
+    assert notes.read_text() == "not a recording\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["notes.rrd"]
+    # Usage errors: exit 2, before any file is touched.
+    assert _finalise(tmp_path / "missing.rrd").returncode == 2
+    assert _finalise().returncode == 2
+    assert _finalise(notes, tmp_path / "missing.rrd").returncode == 2
 
 
 def _publish_depth(node, n):
