@@ -185,7 +185,7 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
                 judge.note(watched, time.monotonic(), last_state_s)
         if silent_s > SUPERVISOR_SILENT_S:
             why = None
-            if pid is not None and silent_s <= MAX_EXCUSED_S:
+            if pid is not None and silent_s <= MAX_EXCUSED_S and not judge.stopped(pid, time.monotonic()):
                 why = judge.excuse(pid, time.monotonic()) or judge.excuse_path(delivery_pids, time.monotonic())
             if why is None:
                 return stopped(f"supervisor: silent: no supervisor/state for {silent_s:.3f} s; "

@@ -193,15 +193,25 @@ class StarvationJudge:
         self._base.pop(pid, None)
         self._verdict.pop(pid, None)
 
-    def excuse(self, pid: int, now_s: float) -> str | None:
-        """Why `pid`'s silence is starvation (one clause), or None when it is not excused."""
+    def stopped(self, pid: int, now_s: float) -> bool:
+        """True when `pid` is stopped (SIGSTOP), a zombie, gone or unreadable now."""
+        fresh = self._read(pid, now_s)
+        return fresh is None or fresh.state in _STOPPED_STATES
+
+    def excuse(self, pid: int, now_s: float, machine: bool = True) -> str | None:
+        """Why `pid`'s silence is starvation (one clause), or None when it is not excused.
+
+        `machine=False`: judge by the process's own run-queue wait only (the delivery path's
+        processes: the machine's verdict is the silent service's to use, never theirs, or a
+        stopped service would be excused by a busy router)."""
         self.note(pid, now_s)
-        fresh = self._read(pid, now_s)  # stopped since the last window? (SIGSTOP is never excused)
-        if fresh is None or fresh.state in _STOPPED_STATES:
+        if self.stopped(pid, now_s):  # stopped since the last window? (SIGSTOP is never excused)
             return None
         verdict = self._verdict.get(pid)
         if verdict is not None and verdict[0]:
             return verdict[1]
+        if not machine:
+            return None
         since_s = self._since.get(pid)
         machine = None if since_s is None else self.machine.judge(since_s, now_s)
         if machine is None:
@@ -221,7 +231,7 @@ class StarvationJudge:
     def excuse_path(self, pids: tuple[int, ...], now_s: float) -> str | None:
         """Why the delivery path (the router, the watcher itself) was starved, or None."""
         for pid in pids:
-            why = self.excuse(pid, now_s)
+            why = self.excuse(pid, now_s, machine=False)
             if why is not None:
                 return f"the delivery path was starved: pid {pid}: {why}"
         return None
@@ -284,7 +294,11 @@ class ServiceStarvation:
         self.judge.tick(now_s)
 
     def excuse(self, service: str, now_s: float) -> str | None:
+        """Why `service`'s silence is starvation, or None. A stopped or gone service is never
+        excused, whatever its delivery path went through."""
         pid = self._pids.get(service)
+        if pid is not None and self.judge.stopped(pid, now_s):
+            return None
         why = None if pid is None else self.judge.excuse(pid, now_s)
         return why or self.judge.excuse_path(self.path_pids, now_s)
 

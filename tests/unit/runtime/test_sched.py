@@ -284,3 +284,31 @@ def test_on_a_saturated_machine_a_sleeping_process_is_excused_and_a_stopped_one_
             proc.send_signal(signal.SIGCONT)
             proc.kill()
             proc.wait(5.0)
+
+
+def test_a_stopped_or_gone_service_is_never_excused_by_a_busy_delivery_path_or_machine():
+    fake, machine = FakeReader(), FakeMachine()
+    adapter = ServiceStarvation(StarvationJudge(fake, MachineHistory(machine)), check_pid=lambda pid: True,
+                                path_pids=(90,))
+    adapter.heard("bridge", 11)
+    fake.samples[11] = SchedSample(0.0, 0.0, "S")
+    fake.samples[90] = SchedSample(0.0, 0.0, "S")
+    machine.reading = MachineReading(0.0, 10.0, 0.0)
+    adapter.tick(1.0)
+    adapter.note("bridge", 1.0, quiet_since_s=0.95)
+    fake.samples[90] = SchedSample(0.0, 0.09, "R")  # the router waited 90 of 100 ms ...
+    machine.reading = MachineReading(0.0, 10.09, 0.0)  # ... on a machine short of CPU
+    adapter.note("bridge", 1.1, quiet_since_s=0.95)
+    assert adapter.excuse("bridge", 1.1) is not None  # a sleeping bridge: excused
+    fake.samples[11] = SchedSample(0.0, 0.0, "T")  # SIGSTOP
+    assert adapter.excuse("bridge", 1.1) is None
+    fake.samples[11] = None  # killed
+    assert adapter.excuse("bridge", 1.1) is None
+    # The path alone is judged on its own wait, not on the machine's.
+    judge = StarvationJudge(fake, MachineHistory(machine))
+    fake.samples[91] = SchedSample(0.0, 0.0, "S")
+    judge.tick(2.0)
+    judge.note(91, 2.0, quiet_since_s=2.0)
+    machine.reading = MachineReading(0.0, 10.5, 0.0)
+    judge.note(91, 2.1, quiet_since_s=2.0)
+    assert judge.excuse(91, 2.1) is not None and judge.excuse_path((91,), 2.1) is None
