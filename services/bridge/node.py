@@ -104,9 +104,9 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
                     if kind == 1:
                         brake.goal_after_stop(rx.msg.goal_id, rx.msg.source, rx.msg.stamp_ns)
                         continue
-                    if not brake.active:
-                        log.warning("stop: braking", extra=kv(reason=rx.msg.reason, protective=rx.msg.protective,
-                                                              source=rx.msg.source))
+                    if not brake.active:  # a release stop is the normal handover; a protective one is not
+                        log.log(logging.WARNING if rx.msg.protective else logging.INFO, "stop: braking",
+                                extra=kv(reason=rx.msg.reason, protective=rx.msg.protective, source=rx.msg.source))
                     brake.engage(rx.msg.reason, measured.velocity_rad_s, rx.msg.protective,
                                  rx.msg.source, rx.msg.stamp_ns)
                 for rx in supervisor.drain():

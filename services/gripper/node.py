@@ -123,10 +123,12 @@ class _GripperLoop:
         key = (decision.mode, decision.sensors_fresh, decision.released, decision.reason)
         if key != self.last_key or now_s - self.last_state_s >= self.state_period_s:
             if key != self.last_key and decision.mode == "hold":
-                # One warning per kind of reason per period ("stale for 0.053 s" and "0.061 s"
-                # are one kind); the state message carries every change.
-                self.hold_log.warning(re.sub(r"[0-9.]+", "#", decision.reason), "holding the grip",
-                                      reason=decision.reason)
+                # One line per kind of reason per period ("stale for 0.053 s" and "0.061 s"
+                # are one kind); the state message carries every change. Sensors not heard from
+                # yet (start-up) are no warning; sensors that went stale are.
+                starting = all(part.endswith("never received") for part in decision.reason.split("; "))
+                self.hold_log.log(logging.INFO if starting else logging.WARNING,
+                                  re.sub(r"[0-9.]+", "#", decision.reason), "holding the grip", reason=decision.reason)
             self.state_pub.put(mode=decision.mode, grip_force_n=decision.grip_force_n,
                                controller=self.config.controller, sensors_fresh=decision.sensors_fresh,
                                released=decision.released, reason=decision.reason)
