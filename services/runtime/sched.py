@@ -47,6 +47,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+from services.runtime.exits import ExitWatch
 from services.runtime.machine_load import MachineHistory
 from services.runtime.starvation import parse_schedstat
 
@@ -268,6 +269,7 @@ class ServiceStarvation:
         self.judge = judge or StarvationJudge()
         self._check_pid = check_pid
         self.path_pids = path_pids
+        self.exits = ExitWatch()
         self._pids: dict[str, int] = {}
         self._refused: set[int] = set()
 
@@ -282,6 +284,18 @@ class ServiceStarvation:
         if old is not None:
             self.judge.forget(old)
         self._pids[service] = pid
+        self.exits.watch(service, pid)
+
+    def exited(self) -> set[str]:
+        """The services whose process has ended, as the kernel says (`ExitWatch`)."""
+        return self.exits.exited()
+
+    def revived(self, service: str) -> None:
+        """`service` is alive again (a restart): its old process no longer speaks for it."""
+        self.exits.forget(service)
+        pid = self._pids.pop(service, None)
+        if pid is not None:
+            self.judge.forget(pid)
 
     def note(self, service: str, now_s: float, quiet_since_s: float | None = None) -> None:
         pid = self._pids.get(service)

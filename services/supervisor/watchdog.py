@@ -1,7 +1,8 @@
 """Who is lost or silent: liveliness, heartbeats and data freshness (pure, no I/O).
 
-- **Lost** (the process died): its liveliness token went away. Zenoh notices a killed
-  process within milliseconds (the link closes).
+- **Lost** (the process died): its liveliness token went away (Zenoh notices a killed
+  process within milliseconds when the router gets a CPU), or, on one host, the kernel says
+  its process ended (`excuser.exited()`, a process file descriptor: no bus in between).
 - **Silent** (frozen, hung or cut off): its heartbeat (`runtime/heartbeat`, 20 Hz) is older
   than `heartbeat_timeout_s`, or one of the data streams it owns that the handover relies on
   is older than `stream_timeout_s`. A frozen process keeps its liveliness token until the
@@ -37,6 +38,12 @@ class Excuser(Protocol):
 
     def tick(self, now_s: float) -> None:
         """Called at every check: keep whatever must be known from before a silence began."""
+
+    def exited(self) -> set[str]:
+        """The services whose process has ended (known without the bus), or an empty set."""
+
+    def revived(self, service: str) -> None:
+        """The service is alive again (a restart): forget what was known of its old process."""
 
 
 @dataclass(frozen=True)
@@ -120,6 +127,8 @@ class Watchdog:
                 w.reported = False  # a restarted service is judged afresh
                 w.last_beat_s = None
                 w.streams.clear()
+                if w.seen and self.excuser is not None:
+                    self.excuser.revived(service)
             w.seen, w.alive, w.lost_at_s = True, True, None
         elif w.alive:
             w.alive, w.lost_at_s = False, at_s
@@ -150,13 +159,16 @@ class Watchdog:
         excuser excuses are listed in `excused` instead)."""
         out = []
         self.excused = []
+        exited: set[str] = set()
         if self.excuser is not None:
             self.excuser.tick(now_s)
+            exited = self.excuser.exited()
         for name, w in self._w.items():
             if w.reported or not w.seen:
                 continue
-            if not w.alive:
-                out.append(Fault(name, "lost", "process gone (liveliness token lost)", now_s, w.lost_at_s or now_s))
+            if not w.alive or name in exited:
+                detail = "process gone (liveliness token lost)" if not w.alive else "process gone (it exited)"
+                out.append(Fault(name, "lost", detail, now_s, w.lost_at_s or now_s))
                 continue
             fault = self._silence(name, w, now_s)
             if fault is None:

@@ -136,6 +136,12 @@ class FixedExcuser:
     def tick(self, now_s: float) -> None:
         self.ticks += 1
 
+    def exited(self) -> set[str]:
+        return set()
+
+    def revived(self, service: str) -> None:
+        pass
+
 
 def test_the_watchdog_excuses_a_starved_silence_up_to_its_bound_but_never_a_lost_service():
     excuser = FixedExcuser("its threads waited 200 ms for a CPU")
@@ -312,3 +318,25 @@ def test_a_stopped_or_gone_service_is_never_excused_by_a_busy_delivery_path_or_m
     machine.reading = MachineReading(0.0, 10.5, 0.0)
     judge.note(91, 2.1, quiet_since_s=2.0)
     assert judge.excuse(91, 2.1) is not None and judge.excuse_path((91,), 2.1) is None
+
+
+def test_a_killed_service_is_known_lost_from_the_kernel_without_the_bus():
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    adapter = ServiceStarvation(check_pid=lambda pid: True)
+    dog = Watchdog(["planner"], heartbeat_timeout_s=0.25, excuser=adapter)
+    try:
+        dog.liveliness("planner", True, 0.0)
+        dog.heartbeat("planner", 0.0)
+        adapter.heard("planner", proc.pid)
+        assert dog.check(0.01) == [] and adapter.exited() == set()
+        proc.kill()
+        assert wait_until(lambda: adapter.exited() == {"planner"}, 5.0)  # not reaped yet: a zombie
+        faults = dog.check(0.02)  # the liveliness token is still there
+        assert [(f.service, f.what, f.detail) for f in faults] == [("planner", "lost", "process gone (it exited)")]
+        dog.liveliness("planner", False, 0.03)
+        dog.liveliness("planner", True, 0.5)  # restarted: the old process speaks no more for it
+        assert adapter.exited() == set()
+    finally:
+        proc.kill()
+        proc.wait(5.0)
+        adapter.exits.close()
