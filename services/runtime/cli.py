@@ -23,11 +23,34 @@ EXIT_BAD_INPUT = 2
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse that reports errors as one line and exit code 2."""
+    """argparse that reports errors as one line and exit code 2.
+
+    With subcommands, argparse takes the value of an option it does not know for the
+    subcommand (``handover-motion --replay x``: "invalid choice: 'x'"); such an error names
+    the unknown option instead."""
+
+    _args: list[str] = []
+
+    def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
+        self._args = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(args, namespace)
 
     def error(self, message: str) -> None:  # type: ignore[override]
+        if "invalid choice" in message:
+            unknown = [a for a in self._args if a.startswith("-") and a not in ("-", "--") and not self._knows(a)]
+            if unknown:
+                message = f"unrecognized option{'s' if len(unknown) > 1 else ''}: {' '.join(unknown)}"
         sys.stderr.write(f"{self.prog}: error: {message} (see --help)\n")
         raise SystemExit(EXIT_BAD_INPUT)
+
+    def _knows(self, arg: str) -> bool:
+        """True when `arg` is (or abbreviates) an option of this parser or of a subcommand."""
+        name = arg.split("=", 1)[0]
+        parsers = [self]
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                parsers.extend(action.choices.values())
+        return any(option.startswith(name) for p in parsers for option in p._option_string_actions)
 
 
 class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):

@@ -36,3 +36,19 @@ def test_help_states_each_default_once(module, argv, capsys):
     options = re.split(r"\s(?=--?[a-z])", text)
     twice = [o for o in options if o.lower().count("default") > 1 and "(default:" in o]
     assert twice == [], f"defaults said twice: {twice}"
+
+
+SUBCOMMAND_CLIS = ["services.motion.cli", "services.planner.cli", "services.recorder.cli", "services.tracker.cli"]
+
+
+@pytest.mark.parametrize("module", SUBCOMMAND_CLIS)
+def test_an_unknown_option_before_a_subcommand_is_named_not_taken_for_the_subcommand(module, capsys):
+    """argparse takes `x` in `--replay x` for the subcommand and says "invalid choice: 'x'"."""
+    with pytest.raises(SystemExit) as exit_info:
+        importlib.import_module(module).main(["--no-such-option", "x"])
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("error: unrecognized option: --no-such-option (see --help)") and "\n" not in err
+    with pytest.raises(SystemExit) as exit_info:
+        importlib.import_module(module).main(["frobnicate"])  # a wrong subcommand is still said so
+    assert exit_info.value.code == 2 and "invalid choice: 'frobnicate'" in capsys.readouterr().err
