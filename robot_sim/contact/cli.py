@@ -79,8 +79,16 @@ def _add_common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", type=Path, default=None, help="write the result as JSON to this file")
 
 
+class _OneLineParser(argparse.ArgumentParser):
+    """Errors as one line (``handover-contact: error: …``) and exit 2, as every command of the stack."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        sys.stderr.write(f"{self.prog}: error: {message} (see --help)\n")
+        raise SystemExit(2)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="handover-contact",
+    parser = _OneLineParser(prog="handover-contact",
                                      description="Contact simulator of the handover transfer phase: one "
                                                  "episode, a batch, or the thesis's figures.")
     parser.add_argument("--log-level", default="WARNING", choices=["DEBUG", "INFO", "WARNING", "ERROR"])

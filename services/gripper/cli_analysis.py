@@ -20,6 +20,7 @@ import numpy as np
 from services.gripper import analysis
 from services.gripper.controllers import FS_PRESETS, FailSafeParams
 from services.gripper.errors import GripperError
+from services.runtime.cli import one_line_parser
 
 
 def _add_params(p: argparse.ArgumentParser) -> None:
@@ -154,7 +155,7 @@ def cmd_reproduce(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = one_line_parser(
         prog="python -m services.gripper.cli_analysis",
         description="Fail-safe gripper analysis: F_ST, F_BT, rest condition, tolerated acceleration, φ_max; Figures 18-19.",
     )

@@ -30,7 +30,7 @@ from services.gripper.benchmark import (
 )
 from services.gripper.controllers import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
-from services.runtime.cli import HelpFormatter
+from services.runtime.cli import HelpFormatter, one_line_parser
 
 
 
@@ -59,7 +59,7 @@ def _override(text: str) -> tuple[str, str, float | bool]:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = one_line_parser(
         prog="handover-bench",
         description="Monte-Carlo benchmark of the gripper release controllers on the realistic contact plant.",
         formatter_class=HelpFormatter)

@@ -10,10 +10,11 @@ from pathlib import Path
 
 from services.gripper.errors import GripperError
 from services.gripper.reproduce import PRESET_TAGS, claims_table, reproduce
+from services.runtime.cli import one_line_parser
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = one_line_parser(
         prog="python -m services.gripper.reproduce",
         description="Reproduce thesis Figures 20-23 (thesis model mode) and compare with the thesis's statements.",
     )

@@ -3,14 +3,14 @@
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 from services.planner.figures import figure3, findings, robot
+from services.runtime.cli import one_line_parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m services.planner.figures",
+    parser = one_line_parser(prog="python -m services.planner.figures",
                                      description="Write the DJT planner figures (PNG): Figure 3 case, "
                                                  "findings, the robot as a receiver.")
     parser.add_argument("--out", type=Path, default=Path("docs/img"), help="output folder (default: docs/img)")

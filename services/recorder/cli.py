@@ -20,6 +20,7 @@ from pathlib import Path
 
 from services.recorder.errors import RecorderError
 from services.runtime import base_parser, load_profile, run_main
+from services.runtime.paths import unwritable_dir
 
 
 def _record(args: argparse.Namespace) -> int:
@@ -43,6 +44,9 @@ def _record(args: argparse.Namespace) -> int:
     else:
         directory = Path(args.output_dir or config.output_dir)
         output = default_output_path(directory, args.run_id or time.strftime("%Y%m%d-%H%M%S"))
+    why = unwritable_dir(output.parent)
+    if why is not None:  # before the bus: a recorder that cannot write must not start
+        raise RecorderError(f"cannot write a recording into {str(output.parent)!r} ({why}); choose a writable folder")
     return run_recorder(profile, output, config)
 
 

@@ -64,6 +64,11 @@ class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
         return super()._get_help_string(action)
 
 
+def one_line_parser(**kwargs) -> argparse.ArgumentParser:
+    """An `argparse.ArgumentParser` (same arguments) whose errors are one line and exit 2."""
+    return _Parser(**kwargs)
+
+
 def base_parser(prog: str, description: str) -> argparse.ArgumentParser:
     """An argument parser with the flags every service shares.
 
