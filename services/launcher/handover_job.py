@@ -34,6 +34,8 @@ WATCH_PERIOD_S = 0.02
 SELF_STALL_S = 0.1
 #: A supervisor quiet this long is read from /proc at each loop (to judge starvation), s.
 NOTE_AFTER_S = 0.08
+#: A supervisor this quiet whose process is stopped (SIGSTOP) is silent at once, s.
+STOPPED_AFTER_S = 0.1
 
 
 @dataclass
@@ -183,6 +185,9 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
         if pid is not None:
             for watched in (pid, *delivery_pids):
                 judge.note(watched, time.monotonic(), last_state_s)
+        if pid is not None and silent_s > STOPPED_AFTER_S and judge.is_stopped_now(pid, time.monotonic()):
+            return stopped(f"supervisor: silent: no supervisor/state for {silent_s:.3f} s, its process is stopped; "
+                           "the launcher stopped the arm")
         if silent_s > SUPERVISOR_SILENT_S:
             why = None
             if pid is not None and silent_s <= MAX_EXCUSED_S and not judge.stopped(pid, time.monotonic()):

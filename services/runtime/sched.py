@@ -199,6 +199,12 @@ class StarvationJudge:
         fresh = self._read(pid, now_s)
         return fresh is None or fresh.state in _STOPPED_STATES
 
+    def is_stopped_now(self, pid: int, now_s: float) -> bool:
+        """True only when `pid` is readable and stopped (``T``/``t``): a process that surely
+        cannot run until it is continued (gone or unreadable: False, liveliness tells)."""
+        fresh = self._read(pid, now_s)
+        return fresh is not None and fresh.state in "Tt"
+
     def excuse(self, pid: int, now_s: float, machine: bool = True) -> str | None:
         """Why `pid`'s silence is starvation (one clause), or None when it is not excused.
 
@@ -289,6 +295,11 @@ class ServiceStarvation:
     def exited(self) -> set[str]:
         """The services whose process has ended, as the kernel says (`ExitWatch`)."""
         return self.exits.exited()
+
+    def stopped(self, service: str, now_s: float) -> bool:
+        """True when `service`'s process is known and stopped now (SIGSTOP: state ``T``)."""
+        pid = self._pids.get(service)
+        return pid is not None and self.judge.is_stopped_now(pid, now_s)
 
     def revived(self, service: str) -> None:
         """`service` is alive again (a restart): its old process no longer speaks for it."""

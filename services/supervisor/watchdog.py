@@ -42,6 +42,9 @@ class Excuser(Protocol):
     def exited(self) -> set[str]:
         """The services whose process has ended (known without the bus), or an empty set."""
 
+    def stopped(self, service: str, now_s: float) -> bool:
+        """True when the service's process is stopped (SIGSTOP) now, as the kernel says."""
+
     def revived(self, service: str) -> None:
         """The service is alive again (a restart): forget what was known of its old process."""
 
@@ -91,15 +94,19 @@ class Watchdog:
         excuser: judges a silence as starvation (None: never excused).
         max_excused_s: a silence this long is a fault even when excused, s.
         note_after_s: a service quiet this long is noted to the excuser at each check, s.
+        stopped_after_s: a service without a heartbeat this long whose process the excuser
+            finds stopped (SIGSTOP, state ``T``) is silent at once, without waiting for
+            `heartbeat_timeout_s`: nothing but a SIGCONT can make it beat again, s.
     """
 
     def __init__(self, services: list[str], heartbeat_timeout_s: float = 0.25, stream_timeout_s: float = 0.2,
                  streams: dict[str, str] | None = None,
                  heartbeat_timeouts_s: dict[str, float] | None = None, excuser: Excuser | None = None,
-                 max_excused_s: float = 1.0, note_after_s: float = 0.06) -> None:
+                 max_excused_s: float = 1.0, note_after_s: float = 0.06, stopped_after_s: float = 0.1) -> None:
         self.excuser = excuser
         self.max_excused_s = max_excused_s
         self.note_after_s = note_after_s
+        self.stopped_after_s = stopped_after_s
         self.excused: list[tuple[str, str]] = []  # (service, why) of the last `pending` call
         self.heartbeat_timeout_s = heartbeat_timeout_s
         self.heartbeat_timeouts_s = dict(heartbeat_timeouts_s or {})
@@ -170,11 +177,11 @@ class Watchdog:
                 detail = "process gone (liveliness token lost)" if not w.alive else "process gone (it exited)"
                 out.append(Fault(name, "lost", detail, now_s, w.lost_at_s or now_s))
                 continue
-            fault = self._silence(name, w, now_s)
+            fault, excusable = self._silence(name, w, now_s)
             if fault is None:
                 continue
             why = None
-            if self.excuser is not None and now_s - fault.since_s <= self.max_excused_s:
+            if excusable and self.excuser is not None and now_s - fault.since_s <= self.max_excused_s:
                 why = self.excuser.excuse(name, now_s)
             if why is None:
                 out.append(fault)
@@ -182,9 +189,10 @@ class Watchdog:
                 self.excused.append((name, f"{fault.detail}, excused: starved of CPU ({why})"))
         return out
 
-    def _silence(self, name: str, w: _Watched, now_s: float) -> Fault | None:
-        """The silence fault of one live service at `now_s` (None: it is not silent); a
-        service quiet for `note_after_s` is noted to the excuser."""
+    def _silence(self, name: str, w: _Watched, now_s: float) -> tuple[Fault | None, bool]:
+        """The silence fault of one live service at `now_s` (None: it is not silent) and
+        whether starvation may excuse it (not when its process is stopped); a service quiet
+        for `note_after_s` is noted to the excuser."""
         timeout_s = self.heartbeat_timeouts_s.get(name, self.heartbeat_timeout_s)
         quiet_s = 0.0 if w.last_beat_s is None else now_s - w.last_beat_s
         fault = None
@@ -196,6 +204,12 @@ class Watchdog:
                 if now_s - at_s > self.stream_timeout_s:
                     fault = Fault(name, "silent", f"silent: no {suffix} for {now_s - at_s:.3f} s", now_s, at_s)
                     break
+        if (fault is None and w.last_beat_s is not None and self.excuser is not None
+                and now_s - w.last_beat_s > self.stopped_after_s and self.excuser.stopped(name, now_s)):
+            beat_quiet_s = now_s - w.last_beat_s
+            fault = Fault(name, "silent", f"silent: no heartbeat for {beat_quiet_s:.3f} s, its process is stopped",
+                          now_s, w.last_beat_s)
+            return fault, False
         if self.excuser is not None and quiet_s > self.note_after_s:
             self.excuser.note(name, now_s, now_s - quiet_s)
-        return fault
+        return fault, True

@@ -125,6 +125,7 @@ def test_only_a_process_running_a_module_of_the_stack_counts_as_a_service():
 class FixedExcuser:
     def __init__(self, why: str | None) -> None:
         self.why, self.noted, self.ticks = why, [], 0
+        self.stopped_services: set[str] = set()
 
     def note(self, service: str, now_s: float, quiet_since_s: float | None = None) -> None:
         self.noted.append((service, now_s))
@@ -138,6 +139,9 @@ class FixedExcuser:
 
     def exited(self) -> set[str]:
         return set()
+
+    def stopped(self, service: str, now_s: float) -> bool:
+        return service in self.stopped_services
 
     def revived(self, service: str) -> None:
         pass
@@ -336,6 +340,37 @@ def test_a_killed_service_is_known_lost_from_the_kernel_without_the_bus():
         dog.liveliness("planner", False, 0.03)
         dog.liveliness("planner", True, 0.5)  # restarted: the old process speaks no more for it
         assert adapter.exited() == set()
+    finally:
+        proc.kill()
+        proc.wait(5.0)
+        adapter.exits.close()
+
+
+def test_a_service_whose_process_is_stopped_is_silent_after_two_beats_not_the_full_time_out():
+    excuser = FixedExcuser("the machine was short of CPU")
+    dog = Watchdog(["bridge", "gripper"], heartbeat_timeout_s=0.2, excuser=excuser)
+    for name in ("bridge", "gripper"):
+        dog.liveliness(name, True, 0.0)
+        dog.heartbeat(name, 0.0)
+    excuser.stopped_services = {"gripper"}
+    assert dog.check(0.09) == []  # under two beats: not judged yet
+    faults = dog.check(0.11)
+    assert [(f.service, f.detail) for f in faults] == [("gripper", "silent: no heartbeat for 0.110 s, its process is stopped")]
+    assert dog.check(0.3) == []  # the bridge, quiet but not stopped: excused (starved), not stopped
+
+
+def test_a_stopped_process_is_known_stopped_and_a_running_or_gone_one_is_not():
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    adapter = ServiceStarvation(check_pid=lambda pid: True)
+    try:
+        adapter.heard("motion", proc.pid)
+        assert not adapter.stopped("motion", 0.0) and not adapter.stopped("nobody", 0.0)
+        proc.send_signal(signal.SIGSTOP)
+        assert wait_until(lambda: adapter.stopped("motion", 0.0), 5.0)
+        proc.send_signal(signal.SIGCONT)
+        proc.kill()
+        proc.wait(5.0)
+        assert not adapter.stopped("motion", 0.0)  # gone: the kernel's exit and liveliness tell
     finally:
         proc.kill()
         proc.wait(5.0)

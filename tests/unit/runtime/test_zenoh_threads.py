@@ -24,14 +24,23 @@ from services.runtime.zenoh_threads import (
 )
 
 _CLIENT = """
-import json, os, sys
+import json, os, sys, time
 from pathlib import Path
 from services.runtime import open_session, run_main
 from services.runtime.testing import loopback_profile
 
+def threads():
+    return sorted((t / "comm").read_text().strip() for t in Path("/proc/self/task").iterdir())
+
 def run(args):
     session = open_session(loopback_profile(int(sys.argv[1])), "client")
-    names = sorted((t / "comm").read_text().strip() for t in Path("/proc/self/task").iterdir())
+    deadline = time.monotonic() + 5.0  # Zenoh starts a link's threads as the link comes up
+    names = threads()
+    while "app-0" not in names or (os.environ.get("ZENOH_RUNTIME", "").startswith("(rx") and "tx-0" not in names):
+        if time.monotonic() > deadline:
+            break
+        time.sleep(0.05)
+        names = threads()
     session.close()
     print(json.dumps({"threads": names, "env": os.environ.get("ZENOH_RUNTIME")}))
     return 0
