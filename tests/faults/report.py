@@ -1,6 +1,9 @@
-"""The CI fault table from the JSON each fault-injection run leaves (`out/faults/ci/*.json`).
+"""The CI fault table from the JSON each fault-injection run leaves (`<DIR>/*.json`).
 
-    python -m tests.faults.report [DIR]        # default: out/faults/ci
+    python -m tests.faults.report [DIR]        # default: $HANDOVER_FAULT_REPORT_DIR, else
+                                               # handover-faults-ci in the temporary folder
+
+The runs write there, not into the checkout: the test suite leaves the checkout unchanged.
 
 Prints one Markdown row per run (faults, outcome, launcher exit line, detection and stop in
 ms from the injection, invariant violations) and the p50/p99 of detection and stop after a
@@ -11,12 +14,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
-DEFAULT_DIR = Path(__file__).resolve().parents[2] / "out" / "faults" / "ci"
+#: Where `tests/faults/test_fault_injection.py` leaves one JSON per run.
+DEFAULT_DIR = Path(os.environ.get("HANDOVER_FAULT_REPORT_DIR") or Path(tempfile.gettempdir()) / "handover-faults-ci")
 
 
 def _ms(values: list[float]) -> str:

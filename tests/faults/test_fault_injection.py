@@ -20,7 +20,7 @@ and in its JSON; a second such stop fails.
 
 Each run is judged by `invariants.judge`: never dropped, no motion after a protective stop or
 a release, the fault named in the summary or the exit line, exit 1 with the reason for a
-critical service and 0 otherwise. Latencies go to ``out/faults/ci/<run>.json``.
+critical service and 0 otherwise. Latencies go to ``<DEFAULT_DIR>/<run>.json`` (`tests/faults/report.py`).
 """
 
 from __future__ import annotations
@@ -33,10 +33,11 @@ import pytest
 
 from tests.faults.invariants import FaultPlan, judge
 from tests.faults.matrix import run_again_if_stopped_before_the_fault
+from tests.faults.report import DEFAULT_DIR
 
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(180)]
 
-OUT = Path(__file__).resolve().parents[2] / "out" / "faults" / "ci"
+OUT = DEFAULT_DIR  # one JSON per run, outside the checkout (tests/faults/report.py)
 CRITICAL = ("bridge", "motion", "gripper", "planner", "tracker", "kinect", "supervisor")
 SAFETY_TOPICS = (  # (publisher, topic)
     ("gripper", "gripper/release"),

@@ -154,8 +154,8 @@ def test_launcher_reports_a_busy_port_in_one_line(tmp_path):
     from services.runtime.testing import BusRouter
 
     with BusRouter(profile):
-        res = subprocess.run([sys.executable, "-m", "services.launcher", "--port", str(port), "--job", "check"],
-                             capture_output=True, text=True, timeout=30)
+        res = subprocess.run([sys.executable, "-m", "services.launcher", "--port", str(port), "--job", "check",
+                              "--recording-dir", str(tmp_path)], capture_output=True, text=True, timeout=30)
     assert res.returncode == 2  # the port given is in use: a usage error (exit 2), with the way out named
     assert "cannot host the bus" in res.stdout + res.stderr and "--port auto" in res.stdout + res.stderr
 

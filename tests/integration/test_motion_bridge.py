@@ -129,9 +129,6 @@ def test_reaches_a_transfer_pose_and_a_stop_halts_it(stack, make_node):
         "reach_error_mm": error_m * 1000,
     }
     print("\nmotion stop → arm at rest (JointState):", json.dumps(summary, indent=1))
-    out = Path("out/integration")
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "motion_stop.json").write_text(json.dumps(summary, indent=1))
     # DESIGN §8 asks for p99 ≤ 50 ms; with the sim's first-order servo (τ = 50 ms) the measured
     # p99 was ~150–250 ms before the bridge honoured feed-forward, ~80 ms now (docs/motion.md). This bound catches a stop that does not act at all
     # (a coasting arm would need the rest of the reach, ~0.7 s).
