@@ -28,7 +28,6 @@ from bus_schema.types import (
     DurationS,
     ForceN,
     Fraction,
-    FrequencyHz,
     Identifier,
     JointEfforts,
     JointNames,

@@ -35,7 +35,7 @@ mean power of the same signal in the noiseless run of the same scenario (like Ma
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Literal, Sequence
 
 import numpy as np

@@ -27,7 +27,8 @@ def _finite(obj) -> None:
     for f in fields(obj):
         v = getattr(obj, f.name)
         if isinstance(v, float) and not math.isfinite(v) and not f.name.endswith("_or_inf"):
-            raise ContactSimError(f"invalid contact-sim parameter: {type(obj).__name__}.{f.name} must be finite, got {v}")
+            raise ContactSimError(f"invalid contact-sim parameter: {type(obj).__name__}.{f.name} must be finite, "
+                                  f"got {v}")
 
 
 @dataclass(frozen=True)
@@ -55,7 +56,8 @@ class ObjectParams:
     def __post_init__(self) -> None:
         _finite(self)
         _check(self.mass_kg > 0, f"mass_kg must be > 0, got {self.mass_kg}")
-        _check(0 < self.mu_kinetic <= self.mu_static, f"need 0 < mu_kinetic <= mu_static, got {self.mu_kinetic}, {self.mu_static}")
+        _check(0 < self.mu_kinetic <= self.mu_static,
+               f"need 0 < mu_kinetic <= mu_static, got {self.mu_kinetic}, {self.mu_static}")
         for n in ("pad_extent_x_m", "pad_extent_y_m", "optical_face_x_m", "optical_face_y_m"):
             _check(getattr(self, n) > 0, f"{n} must be > 0")
 
@@ -193,7 +195,8 @@ class SimConfig:
     record_every: int = 1
 
     def __post_init__(self) -> None:
-        _check(math.isfinite(self.dt_s) and 1e-5 <= self.dt_s <= 0.01, f"dt_s must be in [1e-5, 0.01] s, got {self.dt_s}")
+        _check(math.isfinite(self.dt_s) and 1e-5 <= self.dt_s <= 0.01,
+               f"dt_s must be in [1e-5, 0.01] s, got {self.dt_s}")
         _check(math.isfinite(self.duration_s) and self.duration_s > 0, "duration_s must be > 0")
         _check(self.drop_distance_m > 0, "drop_distance_m must be > 0")
         _check(self.record_every >= 1, "record_every must be >= 1")

@@ -173,7 +173,8 @@ class ContactPlant:
         self.hvx, self.hvy = z, z
         fg0 = self.actuator.spring_force_n()
         w = o.weight_n
-        self.stuck = xp.full(self.n, True) & (w <= o.mu_static * fg0 + 0.0) if vectorised else bool(w <= o.mu_static * fg0)
+        self.stuck = (xp.full(self.n, True) & (w <= o.mu_static * fg0 + 0.0) if vectorised
+                      else bool(w <= o.mu_static * fg0))
         self.left = xp.full(self.n, False)
         self.dropped = xp.full(self.n, False)
         self.mode = xp.where(fg0 > 0.0, xp.where(self.stuck, _GRASP, _SLIP), _RELEASE)

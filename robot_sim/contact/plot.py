@@ -41,7 +41,8 @@ def plot_episode(trace: EpisodeTrace, outcome: EpisodeOutcome, path: str | Path,
     a0.plot(t, trace.grip_force_n, color="k", lw=1.6, label="grip force F_G (true)")
     if trace.grip_command_n is not None:
         a0.plot(t, trace.grip_command_n, color="k", lw=0.8, ls="--", label="grip command")
-    a0.plot(t, np.hypot(trace.pull_force_x_n, trace.pull_force_y_n), color="tab:blue", lw=1.4, label="|receiver force| (true)")
+    a0.plot(t, np.hypot(trace.pull_force_x_n, trace.pull_force_y_n), color="tab:blue", lw=1.4,
+            label="|receiver force| (true)")
     if trace.sensed_force_x_n is not None:
         a0.plot(t, trace.sensed_force_x_n, color="tab:orange", lw=0.8, label="F_sx (wrist sensor)")
         a0.plot(t, trace.sensed_force_y_n, color="tab:green", lw=0.8, label="F_sy (wrist sensor)")
@@ -65,7 +66,8 @@ def plot_episode(trace: EpisodeTrace, outcome: EpisodeOutcome, path: str | Path,
     a2.legend(loc="upper left", fontsize=7)
     o = outcome
     summary = (f"released={o.released} at {o.release_time_s:.3f} s, dropped={o.dropped}, handed over={o.handed_over}, "
-               f"overshoot {o.force_overshoot_n:.2f} N, slip {100 * o.slip_distance_m:.1f} cm, switches {o.mode_switch_count}")
+               f"overshoot {o.force_overshoot_n:.2f} N, slip {100 * o.slip_distance_m:.1f} cm, "
+               f"switches {o.mode_switch_count}")
     fig.suptitle((title + "\n" if title else "") + summary, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=110)

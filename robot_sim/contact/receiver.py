@@ -115,7 +115,8 @@ class ReceiverParams:
         for n in ("reach_duration_s", "pull_duration_s", "retract_duration_s", "grasp_build_s", "letgo_duration_s"):
             if (np.asarray(getattr(self, n)) <= 0).any():
                 raise ContactSimError(f"invalid receiver parameter: {n} must be > 0")
-        if (np.asarray(self.grasp_strength_n) < 0).any() or ((np.asarray(self.grasp_level) < 0) | (np.asarray(self.grasp_level) > 1)).any():
+        level = np.asarray(self.grasp_level)
+        if (np.asarray(self.grasp_strength_n) < 0).any() or ((level < 0) | (level > 1)).any():
             raise ContactSimError("invalid receiver parameter: grasp_strength_n must be >= 0 and grasp_level in [0, 1]")
 
     @property
@@ -271,7 +272,8 @@ def behaviour_by_name(name: str, **kwargs) -> ReceiverParams:
     return factory(**kwargs)
 
 
-def sample_behaviours(kind: str, n: int, rng: np.random.Generator, weight_n: float = 0.2 * 9.81) -> list[ReceiverParams]:
+def sample_behaviours(kind: str, n: int, rng: np.random.Generator,
+                      weight_n: float = 0.2 * 9.81) -> list[ReceiverParams]:
     """n randomised behaviours of one kind (or "mixed": each kind with equal chance).
 
     Distributions (assumptions, chosen to span the thesis's cases):
@@ -288,7 +290,8 @@ def sample_behaviours(kind: str, n: int, rng: np.random.Generator, weight_n: flo
     for _ in range(n):
         k = kinds[int(rng.integers(4))] if kind == "mixed" else kind
         if k not in _FACTORIES:
-            raise ContactSimError(f"unknown receiver behaviour {kind!r}; choose one of {sorted(_FACTORIES) + ['mixed']}")
+            raise ContactSimError(f"unknown receiver behaviour {kind!r}; "
+                                  f"choose one of {sorted(_FACTORIES) + ['mixed']}")
         phi = math.radians(rng.uniform(-30.0, 30.0))
         w_est = weight_n * rng.uniform(0.9, 1.1)
         common = dict(pull_angle_rad=phi, weight_n=w_est, reach_start_s=rng.uniform(0.1, 0.3),

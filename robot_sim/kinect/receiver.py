@@ -86,7 +86,8 @@ class BodySize:
         return self.hip_height_above_floor_m + (SHOULDER_HEIGHT_RATIO - HIP_HEIGHT_RATIO) * self.height_m
 
 
-def _two_link_elbow(shoulder: np.ndarray, hand: np.ndarray, l1: float, l2: float, pole: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _two_link_elbow(shoulder: np.ndarray, hand: np.ndarray, l1: float, l2: float,
+                    pole: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Elbow position of a two-link arm reaching `hand` from `shoulder`, bent toward `pole`.
 
     A target out of reach is pulled back along the shoulder→hand line to 99.5 % of the reach.

@@ -57,7 +57,8 @@ def table_boxes_and_legs() -> tuple[Box, list[Capsule]]:
         for sy in (-1, 1):
             x = c[0] + sx * (half[0] - 0.04)
             y = c[1] + sy * (half[1] - 0.04)
-            legs.append(Capsule(np.array([x, y, floor_z]), np.array([x, y, c[2] - TABLE_THICKNESS_M]), TABLE_LEG_RADIUS_M))
+            legs.append(Capsule(np.array([x, y, floor_z]), np.array([x, y, c[2] - TABLE_THICKNESS_M]),
+                                TABLE_LEG_RADIUS_M))
     return top, legs
 
 

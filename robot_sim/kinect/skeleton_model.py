@@ -68,7 +68,8 @@ class SkeletonErrorModel:
         tool = (1 - w) * self._tool_hist[k - 1] + w * self._tool_hist[k]
         return joints, tool
 
-    def step(self, t_s: float, true_joints_m: np.ndarray, robot_tool_m: np.ndarray) -> tuple[bool, np.ndarray, np.ndarray]:
+    def step(self, t_s: float, true_joints_m: np.ndarray,
+             robot_tool_m: np.ndarray) -> tuple[bool, np.ndarray, np.ndarray]:
         """Estimate at time `t_s` (s, increasing).
 
         Args:
