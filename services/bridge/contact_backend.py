@@ -92,7 +92,8 @@ class ContactSimBackend(SimBackend):
             "force_n": (clip_finite(obs.wrist_force_x_n, 1e4), clip_finite(obs.wrist_force_y_n, 1e4), 0.0),
         })
         publish("sensors/object_motion", {
-            "displacement_counts": (int(clip_finite(obs.optical_counts_x, INT16_MAX)), int(clip_finite(obs.optical_counts_y, INT16_MAX))),
+            "displacement_counts": (int(clip_finite(obs.optical_counts_x, INT16_MAX)),
+                                    int(clip_finite(obs.optical_counts_y, INT16_MAX))),
             "counts_per_m": float(obs.optical_counts_per_m),
             "dt_s": float(min(max(obs.optical_dt_s, 1e-6), 1.0)),
             "surface_valid": bool(obs.optical_valid),
@@ -106,7 +107,8 @@ class ContactSimBackend(SimBackend):
         hand = tool + np.array([float(obs.hand_position_x_m), 0.0, -float(obs.hand_position_y_m)])
         publish("sim/truth", {
             "object_position_m": tuple(np.clip(obj, -100, 100).tolist()),
-            "object_velocity_m_s": (clip_finite(obs.object_velocity_x_m_s, 1e3), 0.0, clip_finite(-obs.object_velocity_y_m_s, 1e3)),
+            "object_velocity_m_s": (clip_finite(obs.object_velocity_x_m_s, 1e3), 0.0,
+                                    clip_finite(-obs.object_velocity_y_m_s, 1e3)),
             "held_by": held_by,
             "dropped": bool(obs.dropped),
             "slip_m": clip_finite(obs.object_position_y_m, 10.0),

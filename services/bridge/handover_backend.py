@@ -94,7 +94,8 @@ class HandoverSimBackend(SimBackend):
             "force_n": (clip_finite(out.wrist_force_n[0], 1e4), clip_finite(out.wrist_force_n[1], 1e4), 0.0),
         })
         publish("sensors/object_motion", {
-            "displacement_counts": (int(clip_finite(out.optical_counts[0], INT16_MAX)), int(clip_finite(out.optical_counts[1], INT16_MAX))),
+            "displacement_counts": (int(clip_finite(out.optical_counts[0], INT16_MAX)),
+                                    int(clip_finite(out.optical_counts[1], INT16_MAX))),
             "counts_per_m": float(out.optical_counts_per_m),
             "dt_s": float(min(max(out.optical_dt_s, 1e-6), 1.0)),
             "surface_valid": bool(out.optical_valid),

@@ -222,7 +222,8 @@ def slip_pole(pull_n, phi_rad, fs: FailSafeParams, plant: ThesisPlant = TABLE_IV
     return a0
 
 
-def _stable_force_threshold_scalar(phi_rad: float, fs, plant, with_integrator: bool, max_pull_n: float, n_grid: int) -> float:
+def _stable_force_threshold_scalar(phi_rad: float, fs, plant, with_integrator: bool, max_pull_n: float,
+                                   n_grid: int) -> float:
     def excess(f):
         return np.abs(slip_pole(f, phi_rad, fs, plant, with_integrator)) - 1.0
 

@@ -336,7 +336,8 @@ def _binned_drop(result: BenchResult, name: str, values: np.ndarray, edges: np.n
     return 0.5 * (edges[:-1] + edges[1:]), rate
 
 
-def write_plots(result: BenchResult, rows: list[ControllerStats], out_dir: Path, prefix: str = "gripper_bench") -> list[Path]:
+def write_plots(result: BenchResult, rows: list[ControllerStats], out_dir: Path,
+                prefix: str = "gripper_bench") -> list[Path]:
     """Drop rate with CIs per controller; drop rate vs mass, friction and pull angle;
     overshoot distributions (taking episodes)."""
     import matplotlib

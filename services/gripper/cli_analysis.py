@@ -33,7 +33,8 @@ def _add_params(p: argparse.ArgumentParser) -> None:
 
 
 def _params(args) -> tuple[FailSafeParams, analysis.ThesisPlant]:
-    overrides = {k: getattr(args, k) for k in ("alpha", "beta", "gamma", "f_margin_n", "k_i") if getattr(args, k) is not None}
+    overrides = {k: getattr(args, k) for k in ("alpha", "beta", "gamma", "f_margin_n", "k_i")
+                 if getattr(args, k) is not None}
     fs = replace(FS_PRESETS[args.preset], **overrides)
     plant = analysis.ThesisPlant(mass_kg=args.mass_kg, mu_static=args.mu_static, mu_kinetic=args.mu_kinetic)
     return fs, plant
@@ -56,7 +57,8 @@ def cmd_fst(args) -> int:
     for phi in _phis(args):
         value = analysis.start_force_threshold_n(phi, fs, plant)
         printed = analysis.start_force_threshold_n(phi, fs, plant, printed_equation=True)
-        print(f"φ = {math.degrees(phi):6.1f}°  F_ST = {value:8.4f} N   (printed eq 3.12 without the square: {printed:.4f} N)")
+        print(f"φ = {math.degrees(phi):6.1f}°  F_ST = {value:8.4f} N   "
+              f"(printed eq 3.12 without the square: {printed:.4f} N)")
     return 0
 
 
@@ -120,13 +122,15 @@ def make_figures(out_dir: Path, plant: analysis.ThesisPlant = analysis.TABLE_IV_
 
     fig, axes = plt.subplots(1, 2, figsize=(10, 4.0), sharey=True)
     fst = analysis.start_force_threshold_n(phi, base, plant)
-    for ax, integrator, label in ((axes[0], False, "(a) eq 3.16, no integrator"), (axes[1], True, "(b) eq 3.20, with integrator k_i = 0.13")):
+    for ax, integrator, label in ((axes[0], False, "(a) eq 3.16, no integrator"),
+                                  (axes[1], True, "(b) eq 3.20, with integrator k_i = 0.13")):
         fbt = analysis.stable_force_threshold_n(phi, base, plant, with_integrator=integrator)
         ax.plot(phi_deg, fst, "b-", lw=1.6, label="F_ST")
         ax.plot(phi_deg, np.where(np.isfinite(fbt), fbt, np.nan), "r-", lw=1.6, label="F_BT")
         unstable = ~np.isfinite(fbt)
         if np.any(unstable):
-            ax.fill_between(phi_deg, 0, 20, where=unstable, color="r", alpha=0.08, label="F_BT = ∞ (|a| > 1 at any pull)")
+            ax.fill_between(phi_deg, 0, 20, where=unstable, color="r", alpha=0.08,
+                            label="F_BT = ∞ (|a| > 1 at any pull)")
         ax.set_ylim(0, 20)
         ax.set_title(label, fontsize=9)
         ax.set_xlabel("pull angle φ (deg)")
@@ -157,7 +161,8 @@ def cmd_reproduce(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     parser = one_line_parser(
         prog="python -m services.gripper.cli_analysis",
-        description="Fail-safe gripper analysis: F_ST, F_BT, rest condition, tolerated acceleration, φ_max; Figures 18-19.",
+        description="Fail-safe gripper analysis: F_ST, F_BT, rest condition, tolerated acceleration, φ_max; "
+                    "Figures 18-19.",
     )
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("fst", help="start force threshold F_ST(φ), eq 3.12 with the square restored")
@@ -170,13 +175,15 @@ def build_parser() -> argparse.ArgumentParser:
     _add_params(p)
     p.set_defaults(func=cmd_fbt)
     p = sub.add_parser("conditions", help="rest condition (3.9), tolerated acceleration (3.11), φ_max")
-    p.add_argument("--max-pull-n", type=float, nargs="*", default=[5.0, 10.0], help="pull caps for a practical φ_max, N")
+    p.add_argument("--max-pull-n", type=float, nargs="*", default=[5.0, 10.0],
+                   help="pull caps for a practical φ_max, N")
     _add_params(p)
     p.set_defaults(func=cmd_conditions)
     p = sub.add_parser("figures", help="write Figures 18 and 19 as PNG")
     p.add_argument("--out", type=Path, default=Path("docs/img"), help="output folder (default docs/img)")
     p.set_defaults(func=cmd_figures)
-    p = sub.add_parser("reproduce", help="Figures 20-23 and the comparison table (see services.gripper.reproduce --help)")
+    p = sub.add_parser("reproduce",
+                       help="Figures 20-23 and the comparison table (see services.gripper.reproduce --help)")
     p.add_argument("rest", nargs=argparse.REMAINDER, help="arguments for the reproduction")
     p.set_defaults(func=cmd_reproduce)
     return parser

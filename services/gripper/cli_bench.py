@@ -70,7 +70,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"episode seed (the SG controller was tuned on seed {TUNING_SEED}: evaluate on others)")
     p.add_argument("--workers", type=_positive_int, default=None, help="processes (default: all cores)")
     p.add_argument("--chunk-size", type=_positive_int, default=250, help="episodes per vectorised chunk")
-    p.add_argument("--out", type=Path, default=Path("out/gripper_bench"), help="folder for table.md, results.csv, plots")
+    p.add_argument("--out", type=Path, default=Path("out/gripper_bench"),
+                   help="folder for table.md, results.csv, plots")
     p.add_argument("--img-dir", type=Path, default=None, help="also write the plots here (e.g. docs/img)")
     p.add_argument("--attribute", action="store_true",
                    help="also run the max-hold and reactive-max-hold references and attribute every drop "

@@ -33,7 +33,8 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     presets = args.preset or ["FS-sim-g5", "FS-sim-g1"]
     try:
-        claims, written = reproduce(presets, None if args.no_images else args.img_dir, None if args.no_rrd else args.rrd_dir)
+        claims, written = reproduce(presets, None if args.no_images else args.img_dir,
+                                    None if args.no_rrd else args.rrd_dir)
         table = claims_table(claims)
         args.table.parent.mkdir(parents=True, exist_ok=True)
         args.table.write_text(table, encoding="utf-8")

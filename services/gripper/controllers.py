@@ -652,17 +652,22 @@ class SlipGuardController(_BaseController):
             share = np.where(loaded, np.maximum(share, self.share_before_slip), share)
         adapt = slipping & (share > p.guard_share)
         g_max = p.max_grip_force_n / hold
-        self.gain = np.where(adapt, np.minimum(self.gain + p.adapt_rate_per_s * dt * speed / p.slip_speed_threshold_m_s, g_max), self.gain)
+        self.gain = np.where(adapt,
+                             np.minimum(self.gain + p.adapt_rate_per_s * dt * speed / p.slip_speed_threshold_m_s,
+                                        g_max),
+                             self.gain)
         level = p.load_level(share)
         guarding = share > p.guard_share
         resist = np.where(guarding, p.resist_per_force * np.hypot(fx, fy), 0.0)
         demand = self.gain * np.maximum(hold * level, resist)
         falling = valid & (vy > p.slip_speed_threshold_m_s) & (vy > p.fall_steepness * np.abs(vx))
         demand = np.where(falling, np.maximum(demand, self.gain * hold), demand)
-        grip = np.where(demand >= self.grip_force_n, demand, self.grip_force_n + p.ease_off * (demand - self.grip_force_n))
+        grip = np.where(demand >= self.grip_force_n, demand,
+                        self.grip_force_n + p.ease_off * (demand - self.grip_force_n))
         grip = np.where(grip < p.release_epsilon_n, 0.0, grip)
         self.grip_force_n = np.clip(grip, 0.0, p.max_grip_force_n)
-        self.mode = _estimate_mode(self.grip_force_n, sample, n, self.slip_accel_threshold_m_s2, p.slip_speed_threshold_m_s)
+        self.mode = _estimate_mode(self.grip_force_n, sample, n, self.slip_accel_threshold_m_s2,
+                                   p.slip_speed_threshold_m_s)
         return self.grip_force_n.copy()
 
 

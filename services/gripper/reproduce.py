@@ -223,7 +223,8 @@ def record_figure(spec: FigureSpec, run: ThesisRun, preset: str, path: Path) -> 
     for j, name in enumerate(spec.episodes):
         base = f"fig{spec.number}/{name}"
         for signal, values in signals.items():
-            rr.send_columns(f"{base}/{signal}", indexes=times, columns=rr.Scalars.columns(scalars=values[:, j]), recording=rec)
+            rr.send_columns(f"{base}/{signal}", indexes=times, columns=rr.Scalars.columns(scalars=values[:, j]),
+                            recording=rec)
         mode_text = [MODE_NAMES[int(m)] for m in run.mode[:, j]]
         rr.send_columns(f"{base}/mode_name", indexes=times, columns=rr.TextLog.columns(text=mode_text), recording=rec)
     rec.flush()
@@ -271,10 +272,12 @@ def analysis_claims() -> list[Claim]:
             f"{_fmt(light, 'N')} (M = 0.2 kg), {_fmt(heavy, 'N')} (M = 0.23 kg, the test box)",
             "yes" if close else "no",
             "eq 3.12 with the square restored; the thesis does not say which mass its numbers used"
-            + (f"; Fig. 18's γ = 3 curve (F_margin = 12 N, M = 0.2 kg) gives {fst(0.0, sim3, plant):.2f} N" if name == "FS1" else ""),
+            + (f"; Fig. 18's γ = 3 curve (F_margin = 12 N, M = 0.2 kg) gives {fst(0.0, sim3, plant):.2f} N"
+               if name == "FS1" else ""),
         ))
     order_ok = all(over["FS1"][k] < over["FS3"][k] < over["FS2"][k] for k in (0, 1))
-    claims.append(Claim("issue", "overshoot FS1 < FS3 < FS2", "holds for M = 0.2 and 0.23 kg" if order_ok else "does not hold", "yes" if order_ok else "no"))
+    claims.append(Claim("issue", "overshoot FS1 < FS3 < FS2",
+                        "holds for M = 0.2 and 0.23 kg" if order_ok else "does not hold", "yes" if order_ok else "no"))
     pm = math.degrees(analysis.phi_max_rad(sim3, plant))
     f20 = fst(math.radians(20.0), sim3, plant)
     claims.append(Claim(
@@ -289,12 +292,15 @@ def analysis_claims() -> list[Claim]:
     mono = widen[0] < widen[1] < widen[2] and lower[0] > lower[1] > lower[2]
     claims.append(Claim(
         "§3.4.3", "higher γ: lower F_ST and a wider range of angles",
-        f"γ = 1, 3, 5: F_ST(0) = {', '.join(f'{x:.2f}' for x in lower)} N; φ_max = {', '.join(f'{x:.1f}' for x in widen)}°",
+        f"γ = 1, 3, 5: F_ST(0) = {', '.join(f'{x:.2f}' for x in lower)} N; "
+        f"φ_max = {', '.join(f'{x:.1f}' for x in widen)}°",
         "yes" if mono else "no",
     ))
     amin = analysis.rest_condition_alpha_min(sim5, plant)
-    claims.append(Claim("§3.5", "α = 10 satisfies the rest condition (3.9)", f"α_min = {amin:.2f}", "yes" if sim5.alpha >= amin else "no"))
-    claims.append(Claim("§3.5", "β = 3, F_margin = 12 N tolerate 4 m/s² (3.11)", f"{analysis.tolerated_accel_m_s2(sim5):.2f} m/s²", "yes"))
+    claims.append(Claim("§3.5", "α = 10 satisfies the rest condition (3.9)", f"α_min = {amin:.2f}",
+                        "yes" if sim5.alpha >= amin else "no"))
+    claims.append(Claim("§3.5", "β = 3, F_margin = 12 N tolerate 4 m/s² (3.11)",
+                        f"{analysis.tolerated_accel_m_s2(sim5):.2f} m/s²", "yes"))
     phis = np.radians(np.linspace(-40.0, 10.0, 26))
     fbt = analysis.stable_force_threshold_n(phis, sim1, plant, with_integrator=False)
     fst1 = fst(phis, sim1, plant)
@@ -336,13 +342,15 @@ def simulation_claims(results: dict[int, tuple[FigureSpec, ThesisRun]], preset: 
     take, drop = m(20, "taking"), m(20, "dropping")
     claims.append(Claim(
         "Fig. 20a", "taking: F_G drops to zero once pulled; released immediately",
-        f"released at t = {_fmt(take.release_time_s, 's')} (pull started at 1 s), F_p then {_fmt(take.pull_at_release_n, 'N')}",
+        f"released at t = {_fmt(take.release_time_s, 's')} (pull started at 1 s), "
+        f"F_p then {_fmt(take.pull_at_release_n, 'N')}",
         "yes" if take.released_at_end else "no",
     ))
     claims.append(Claim(
         "Fig. 20b,d", "dropping: a_y < 4 m/s² while pulled; grasp re-established after the pull",
         f"max a_y = {_fmt(drop.max_accel_y_m_s2, 'm/s²')}, slip from {_fmt(drop.first_slip_time_s, 's')}, "
-        f"final mode {drop.final_mode}, F_G back to {_fmt(drop.final_grip_n, 'N')} (start {_fmt(drop.initial_grip_n, 'N')}); "
+        f"final mode {drop.final_mode}, F_G back to {_fmt(drop.final_grip_n, 'N')} "
+        f"(start {_fmt(drop.initial_grip_n, 'N')}); "
         f"{drop.mode_switches} mode switches",
         "yes" if (drop.max_accel_y_m_s2 < 4.0 and held(drop) and not math.isnan(drop.first_slip_time_s))
         else ("no" if math.isnan(drop.first_slip_time_s) else "partly"),
@@ -369,7 +377,8 @@ def simulation_claims(results: dict[int, tuple[FigureSpec, ThesisRun]], preset: 
         "yes" if (p20.released_at_end and m20.released_at_end and m20.min_accel_y_after_release_m_s2 < 0) else "no",
     ))
     th, dh, tl, dl = (m(22, n) for n in ("taking_high_mu", "dropping_high_mu", "taking_low_mu", "dropping_low_mu"))
-    ok = th.released_at_end and tl.released_at_end and held(dh) and held(dl) and dl.max_accel_y_slipping_m_s2 > dh.max_accel_y_slipping_m_s2
+    ok = (th.released_at_end and tl.released_at_end and held(dh) and held(dl)
+          and dl.max_accel_y_slipping_m_s2 > dh.max_accel_y_slipping_m_s2)
     claims.append(Claim(
         "Fig. 22", "taking released and dropping held for high and low friction; higher slip a_y with low friction",
         f"taking released: {th.released_at_end}/{tl.released_at_end}; dropping held: {held(dh)}/{held(dl)}; "
@@ -383,7 +392,8 @@ def simulation_claims(results: dict[int, tuple[FigureSpec, ThesisRun]], preset: 
         f"final mode {gn.final_mode}",
         "yes" if (gn.max_accel_y_m_s2 < 6.0 and gn.final_mode == "grasp") else "no",
         "SNR taken against the mean power of F_G (Matlab awgn 'measured'): σ ≈ 0.7·F_G, so the noisy grip "
-        "crosses zero and the object is in free fall for single steps; against the variance of F_G the noise is far smaller",
+        "crosses zero and the object is in free fall for single steps; against the variance of F_G the noise is "
+        "far smaller",
     ))
     gv = m(23, "dropping_grip_noise_variance")
     claims.append(Claim(
@@ -395,7 +405,8 @@ def simulation_claims(results: dict[int, tuple[FigureSpec, ThesisRun]], preset: 
     ))
     claims.append(Claim(
         "Fig. 23b,d", "a_y noise (SNR 3 dB): the fall is prevented, grasp re-established",
-        f"released: {not math.isnan(an.release_time_s)}, final mode {an.final_mode}, max a_y {_fmt(an.max_accel_y_m_s2, 'm/s²')}",
+        f"released: {not math.isnan(an.release_time_s)}, final mode {an.final_mode}, "
+        f"max a_y {_fmt(an.max_accel_y_m_s2, 'm/s²')}",
         "yes" if (math.isnan(an.release_time_s) and an.final_mode == "grasp") else "no",
     ))
     return [replace(c, source=f"{c.source} [{preset}]") for c in claims]

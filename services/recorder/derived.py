@@ -5,9 +5,9 @@
 
 | key | entity | what |
 |---|---|---|
-| ``robot/joint_state`` | ``robot/joint_position`` | joint positions, rad (one series per joint; names: `joint_names_style`) |
+| ``robot/joint_state`` | ``robot/joint_position`` | joint positions, rad; a series per joint (`joint_names_style`) |
 | ``sim/truth`` | ``world/truth/object``, ``world/truth/receiver_hand``, ``world/tool`` | one point each |
-| ``perception/human`` (tracked) | ``world/human/hand_corrected``, ``hand_raw``, ``hand_correction`` | points; arrow raw → corrected |
+| ``perception/human`` (tracked) | ``world/human/hand_{corrected,raw,correction}`` | points; arrow raw → corrected |
 | ``perception/skeleton`` (tracked) | ``world/skeleton/raw``, ``world/skeleton/bones`` | joints (labelled); bones |
 | ``perception/object`` (found) | ``world/object/estimate`` | box |
 | ``planner/transfer`` | ``world/transfer_target`` | point |

@@ -142,7 +142,8 @@ class RobotModel:
             return 0
         translation = np.asarray(flat.field("translation").flatten(), dtype=np.float32).reshape(-1, 3)
         quaternion = np.asarray(flat.field("quaternion").flatten(), dtype=np.float32).reshape(-1, 4)
-        indexes = [rr.TimeColumn(TIMELINE_STAMP, timestamp=np.repeat(stamps_ns[rows], per_row).astype("datetime64[ns]")),
+        indexes = [rr.TimeColumn(TIMELINE_STAMP,
+                                 timestamp=np.repeat(stamps_ns[rows], per_row).astype("datetime64[ns]")),
                    rr.TimeColumn(TIMELINE_RECEIVE,
                                  timestamp=np.repeat(receives_ns[rows], per_row).astype("datetime64[ns]"))]
         rec.send_columns("transforms", indexes=indexes, columns=rr.Transform3D.columns(

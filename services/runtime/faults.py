@@ -66,7 +66,8 @@ def parse_rules(text: str) -> list[FaultRule]:
             kind, value_text = action.split("=")
             value = float(value_text)
         except ValueError:
-            raise ProfileError(f"{ENV_VAR}: cannot parse {part!r}; use <service>:<topic>:delay=<s> or drop=<p>") from None
+            raise ProfileError(f"{ENV_VAR}: cannot parse {part!r}; "
+                               "use <service>:<topic>:delay=<s> or drop=<p>") from None
         if kind == "delay" and not 0.0 <= value <= MAX_DELAY_S:
             raise ProfileError(f"{ENV_VAR}: delay must be within 0–{MAX_DELAY_S:g} s in {part!r}")
         if kind == "drop" and not 0.0 <= value <= 1.0:

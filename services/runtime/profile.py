@@ -457,6 +457,10 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
     )
 
 
+#: Largest Zenoh message a session takes in: the bus cap plus key and framing, bytes.
+_MAX_MESSAGE_BYTES = MAX_PAYLOAD_BYTES + 65536
+
+
 def _base_config(mode: str, listen: list[str], connect: list[str]) -> dict[str, Any]:
     return {
         "mode": mode,
@@ -469,7 +473,7 @@ def _base_config(mode: str, listen: list[str], connect: list[str]) -> dict[str, 
         "transport": {
             "link": {
                 # The bus carries at most 1 MiB per message (plus framing).
-                "rx": {"max_message_size": MAX_PAYLOAD_BYTES + 65536},
+                "rx": {"max_message_size": _MAX_MESSAGE_BYTES},
             }
         },
     }
@@ -499,9 +503,16 @@ def zenoh_config_dict(profile: Profile, mode: Literal["client", "router", "peer"
     if mode == "router" and profile.access_control is not None:
         conf["access_control"] = profile.access_control.zenoh_dict(profile.prefix)
     _deep_merge(conf, profile.zenoh_overrides)
-    # Whatever the overrides say, scouting stays off.
+    # Whatever the overrides say, scouting stays off, every endpoint obeys the loopback rule
+    # and no message above the bus cap is taken in.
     conf["scouting"]["multicast"]["enabled"] = False
     conf["scouting"]["gossip"]["enabled"] = False
+    for side in ("listen", "connect"):
+        endpoints = conf.get(side, {}).get("endpoints", [])
+        for endpoint in endpoints if isinstance(endpoints, list) else [endpoints]:
+            validate_endpoint(endpoint, profile.allow_non_loopback)
+    rx = conf["transport"].setdefault("link", {}).setdefault("rx", {})
+    rx["max_message_size"] = min(int(rx.get("max_message_size", _MAX_MESSAGE_BYTES)), _MAX_MESSAGE_BYTES)
     return conf
 
 

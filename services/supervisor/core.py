@@ -244,7 +244,8 @@ class Sequencer:
 
     def _at_rest(self, snap: Snapshot) -> bool:
         j = snap.joints
-        return j is not None and bool(j.velocity_rad_s) and max(abs(v) for v in j.velocity_rad_s) < self.config.rest_speed_rad_s
+        return (j is not None and bool(j.velocity_rad_s)
+                and max(abs(v) for v in j.velocity_rad_s) < self.config.rest_speed_rad_s)
 
     def _human_ok(self, snap: Snapshot, fresh_s: float = HUMAN_FRESH_S) -> bool:
         h = snap.human
@@ -310,7 +311,8 @@ class Sequencer:
             "episode_id": ep.episode_id,
             "outcome": ep.outcome,
             "reason": ep.outcome_reason[:512],
-            "transfer_point_base_m": None if ep.reach_position_m is None else tuple(float(v) for v in ep.reach_position_m),
+            "transfer_point_base_m": (None if ep.reach_position_m is None
+                                      else tuple(float(v) for v in ep.reach_position_m)),
             "receiver_posture": ep.receiver_posture if ep.receiver_posture in ("standing", "sitting") else "unknown",
             "phase_durations_s": {k: min(v, 86400.0) for k, v in list(ep.durations_s.items())[:16]},
             "peak_grip_force_n": ep.peak_grip_n,
@@ -512,7 +514,8 @@ class Sequencer:
             self._retract(now, f"reach took longer than {cfg.reach_timeout_s:g} s", "failed", "carry", actions)
             return
         t = snap.target
-        early = snap.motion is not None and snap.motion.goal_id == ep.goal_id and snap.motion.progress < REPLAN_BEFORE_PROGRESS
+        early = (snap.motion is not None and snap.motion.goal_id == ep.goal_id
+                 and snap.motion.progress < REPLAN_BEFORE_PROGRESS)
         if (t is not None and ep.reach_position_m is not None and now - snap.target_rx_s <= TARGET_FRESH_S
                 and early and ep.replans < cfg.max_replans
                 and float(np.linalg.norm(np.array(t.position_base_m) - ep.reach_position_m)) > cfg.replan_threshold_m):
@@ -563,5 +566,6 @@ class Sequencer:
         if status == "reached":
             self._finish(now, ep.outcome, ep.outcome_reason, actions)
         elif status == "failed" or now - ep.goal_sent_s > self.config.move_timeout_s:
-            why = snap.motion.reason if status == "failed" and snap.motion else f"longer than {self.config.move_timeout_s:g} s"
+            why = (snap.motion.reason if status == "failed" and snap.motion
+                   else f"longer than {self.config.move_timeout_s:g} s")
             self._finish(now, "failed", f"{ep.outcome_reason}; retract failed: {why}", actions)

@@ -110,7 +110,8 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                                                reason=sequencer.reason))
             if actions.summary is not None:
                 episode_pub.put(**actions.summary)
-                log.info("episode summary", extra=kv(**{k: actions.summary[k] for k in ("episode_id", "outcome", "reason")}))
+                log.info("episode summary",
+                         extra=kv(**{k: actions.summary[k] for k in ("episode_id", "outcome", "reason")}))
 
         def take_inputs() -> None:
             """Feed the watchdog and the snapshot with everything received so far."""

@@ -85,7 +85,8 @@ def _record(args: argparse.Namespace) -> int:
             writer.write(frame.t_s, T.SIM_TRUTH, frame.truth)
             frames += 1
     size_mb = args.out.stat().st_size / 1e6
-    print(f"recorded episode seed {args.seed}: {frames} frames, {writer.records} messages, {size_mb:.1f} MB -> {args.out}")
+    print(f"recorded episode seed {args.seed}: {frames} frames, {writer.records} messages, "
+          f"{size_mb:.1f} MB -> {args.out}")
     return 0
 
 
@@ -158,8 +159,10 @@ def _evaluate(args: argparse.Namespace, config: TrackerConfig) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = base_parser("handover-tracker", "Kinect skeleton tracker with Mincelli hand corrections, body dimensions and object detection")
-    parser.add_argument("--replay", type=Path, default=None, help="publish from a replay file instead of the bus inputs")
+    parser = base_parser("handover-tracker", "Kinect skeleton tracker with Mincelli hand corrections, "
+                                             "body dimensions and object detection")
+    parser.add_argument("--replay", type=Path, default=None,
+                        help="publish from a replay file instead of the bus inputs")
     parser.add_argument("--replay-loop", action="store_true", help="start the replay file over when it ends")
     _add_config_flags(parser)
     sub = parser.add_subparsers(dest="command", metavar="{run,record,offline,evaluate}")
@@ -173,7 +176,8 @@ def build_parser() -> argparse.ArgumentParser:
     ev.add_argument("--episodes", type=int, default=20, help="number of seeded episodes")
     ev.add_argument("--seed", type=int, default=0, help="first seed")
     ev.add_argument("--json", type=Path, default=Path("out/tracker/evaluation.json"), help="results file")
-    ev.add_argument("--figure", type=Path, default=None, help="write the raw-vs-corrected figure of the first episode here")
+    ev.add_argument("--figure", type=Path, default=None,
+                    help="write the raw-vs-corrected figure of the first episode here")
     return parser
 
 

@@ -168,10 +168,12 @@ class TrackerPipeline:
         cfg = self.config
         if not frame.tracked:
             self._lose()
-            return HumanEstimate(tracked=False, weight_kg=cfg.weight_kg, body=self.body.estimate(), status="no person tracked")
+            return HumanEstimate(tracked=False, weight_kg=cfg.weight_kg, body=self.body.estimate(),
+                                 status="no person tracked")
         if HAND_JOINT not in frame.joints_m:
             self._lose()
-            return HumanEstimate(tracked=False, weight_kg=cfg.weight_kg, body=self.body.estimate(), status="skeleton has no right_hand joint")
+            return HumanEstimate(tracked=False, weight_kg=cfg.weight_kg, body=self.body.estimate(),
+                                 status="skeleton has no right_hand joint")
         self._lost = False
         now = frame.t_s
         raw = frame.joints_m[HAND_JOINT]
@@ -185,7 +187,8 @@ class TrackerPipeline:
             else:
                 pts = self._human_points_near(raw, cfg.lag_box_half_size_m, now)
                 _, tool = self._robot(now)
-                reference = tool if cfg.lag_reference == "robot_hand" and tool is not None else self._depth.camera_position_m
+                reference = (tool if cfg.lag_reference == "robot_hand" and tool is not None
+                             else self._depth.camera_position_m)
                 res = lag_correct(
                     raw, pts, reference, cfg.lag_box_half_size_m, cfg.lag_snap_radius_m, cfg.lag_surface_offset_m
                 )
@@ -196,9 +199,8 @@ class TrackerPipeline:
             if tool is None:
                 notes.append("no fresh joint state: proximity filter blind")
             hand, held = self.proximity.update(now, hand, tool)
-        correction = {(False, False): "none", (True, False): "lag", (False, True): "proximity_hold", (True, True): "lag+proximity_hold"}[
-            (lag_acted, held)
-        ]
+        correction = {(False, False): "none", (True, False): "lag", (False, True): "proximity_hold",
+                      (True, True): "lag+proximity_hold"}[(lag_acted, held)]
         self.body.update(frame.joints_m)
         if "torso" in frame.joints_m:
             self._torso_history.append(np.asarray(frame.joints_m["torso"], float))

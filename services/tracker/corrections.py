@@ -131,7 +131,8 @@ class ProximityFilter:
         time_constant_s: velocity decay for ``predict`` (s).
     """
 
-    def __init__(self, engage_m: float = 0.15, release_m: float = 0.17, mode: ProximityMode = "hold", time_constant_s: float = 0.15) -> None:
+    def __init__(self, engage_m: float = 0.15, release_m: float = 0.17, mode: ProximityMode = "hold",
+                 time_constant_s: float = 0.15) -> None:
         if not 0.0 < engage_m <= release_m:
             raise ValueError("need 0 < engage_m <= release_m")
         self.engage_m = engage_m

@@ -55,7 +55,8 @@ class EpisodeTrace:
     held: np.ndarray
 
 
-def evaluate_episode(seed: int, base: TrackerConfig, arm: ArmGeometry) -> tuple[dict[str, dict[str, list[float]]], EpisodeTrace]:
+def evaluate_episode(seed: int, base: TrackerConfig,
+                     arm: ArmGeometry) -> tuple[dict[str, dict[str, list[float]]], EpisodeTrace]:
     """Errors (m) per variant and phase for one episode, and its trace."""
     pipes = {name: TrackerPipeline(msgspec.structs.replace(base, **flags), arm) for name, flags in VARIANTS.items()}
     errors = {name: {p: [] for p in PHASES} for name in VARIANTS}
@@ -91,7 +92,8 @@ def evaluate_episode(seed: int, base: TrackerConfig, arm: ArmGeometry) -> tuple[
             errors[name]["all"].append(err)
             hands[name].append(est.hand_m)
     trace = EpisodeTrace(
-        np.array(ts), np.array(truth), np.array(tools), {k: np.array(v) for k, v in hands.items()}, np.array(raw), np.array(held)
+        np.array(ts), np.array(truth), np.array(tools), {k: np.array(v) for k, v in hands.items()}, np.array(raw),
+        np.array(held)
     )
     return errors, trace
 
@@ -104,7 +106,8 @@ def summarise(errors: dict[str, dict[str, list[float]]]) -> dict[str, dict[str, 
         for phase, values in phases.items():
             v = np.asarray(values) * 1000.0
             out[name][phase] = (
-                {"frames": int(v.size), "mean_mm": float(v.mean()), "median_mm": float(np.median(v)), "p90_mm": float(np.percentile(v, 90))}
+                {"frames": int(v.size), "mean_mm": float(v.mean()), "median_mm": float(np.median(v)),
+                 "p90_mm": float(np.percentile(v, 90))}
                 if v.size
                 else {"frames": 0, "mean_mm": float("nan"), "median_mm": float("nan"), "p90_mm": float("nan")}
             )
@@ -167,12 +170,14 @@ def plot_trace(trace: EpisodeTrace, path: Path) -> None:
         ax.plot(t, trace.tool_m[:, i], color="tab:gray", ls="--", lw=1, label="robot tool")
         ax.set_ylabel(label)
     axes[0].legend(loc="best", fontsize=8)
-    for name, colour in (("none", "tab:red"), ("lag (a)", "tab:orange"), ("proximity (b)", "tab:green"), ("both (a)+(b)", "tab:blue")):
+    for name, colour in (("none", "tab:red"), ("lag (a)", "tab:orange"), ("proximity (b)", "tab:green"),
+                         ("both (a)+(b)", "tab:blue")):
         err = np.linalg.norm(trace.hands_m[name] - trace.truth_m, axis=1) * 1000.0
         axes[2].plot(t, err, color=colour, lw=1.2, label=name)
     held = trace.held
     if held.any():
-        axes[2].fill_between(t, 0, 1, where=held, transform=axes[2].get_xaxis_transform(), color="tab:blue", alpha=0.1, label="proximity hold")
+        axes[2].fill_between(t, 0, 1, where=held, transform=axes[2].get_xaxis_transform(), color="tab:blue", alpha=0.1,
+                             label="proximity hold")
     axes[2].set_ylabel("hand error (mm)")
     axes[2].set_xlabel("time (s)")
     axes[2].legend(loc="upper left", fontsize=8)

@@ -91,7 +91,8 @@ class _Feeder:
         self.human.append(self.pipe.on_skeleton(skeleton_frame_from_message(msg, t_s)))
 
 
-def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None = None, replay_loop: bool = False) -> int:
+def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None = None,
+             replay_loop: bool = False) -> int:
     """Run the tracker until shutdown (or the end of the replay file)."""
     arm = ArmGeometry()
     pipe = TrackerPipeline(config, arm)
@@ -164,6 +165,7 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
             last_publish = now
             status = (state.tracked, state.status)
             if status != last_status:
-                log.info("human %s%s", "tracked" if state.tracked else "not tracked", f": {state.status}" if state.status else "")
+                log.info("human %s%s", "tracked" if state.tracked else "not tracked",
+                         f": {state.status}" if state.status else "")
                 last_status = status
     return 0

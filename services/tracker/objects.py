@@ -155,7 +155,8 @@ def detect_object(
     areas = np.bincount(blob_of, minlength=n)[1:]
     best = int(np.argmax(areas)) + 1
     if areas[best - 1] < min_pixels:
-        return ObjectDetection(False, none, none, plane, reason=f"largest blob has {int(areas.max())} px < {min_pixels}")
+        return ObjectDetection(False, none, none, plane,
+                               reason=f"largest blob has {int(areas.max())} px < {min_pixels}")
     blob = foreground[blob_of == best]
     blob_pts = backproject_pixels(frame, blob)
     pts = blob_pts.astype(float)

@@ -264,7 +264,8 @@ class FakeBaxter:
             self._bad.warning("grip", f"fake baxter ignored a gripper command: {exc}")
             return
         self.gripper_closed = position < 50.0
-        self.grip_n = grip_force_from_percent(force, self.config.gripper_force_full_scale_n) if self.gripper_closed else 0.0
+        self.grip_n = (grip_force_from_percent(force, self.config.gripper_force_full_scale_n) if self.gripper_closed
+                       else 0.0)
         self.physics.gripper_command(self.grip_n)
 
     def tick(self, dt_s: float) -> None:
