@@ -29,7 +29,8 @@ TRIALS = 60
 def _measure(stop_on_tick: bool) -> tuple[list[float], int]:
     profile = loopback_profile()
     with BusRouter(profile) as router:
-        bridge = ServiceProcess("services.bridge", profile, ["--no-contact"] + (["--stop-on-tick"] if stop_on_tick else []))
+        bridge = ServiceProcess("services.bridge", profile,
+                                ["--no-contact"] + (["--stop-on-tick"] if stop_on_tick else []))
         with bridge:
             wait_alive(router, profile, {"bridge"}, timeout_s=30)
             node = ServiceNode("bench", profile, install_signal_handlers=False)
@@ -47,9 +48,10 @@ def test_bridge_stop_latency_new_vs_tick_grid():
     old, old_stop_ticks = _measure(stop_on_tick=True)
     load_after = os.getloadavg()[0]
     s_new, s_old = summarize(new), summarize(old)
+    stats = ("median", "p90", "p99", "max")
     rows = [
-        ("stop wakes the loop (new)", *(f"{s_new[k] * 1000:.2f}" for k in ("median", "p90", "p99", "max")), str(new_stop_ticks)),
-        ("next 10 ms tick (baseline)", *(f"{s_old[k] * 1000:.2f}" for k in ("median", "p90", "p99", "max")), str(old_stop_ticks)),
+        ("stop wakes the loop (new)", *(f"{s_new[k] * 1000:.2f}" for k in stats), str(new_stop_ticks)),
+        ("next 10 ms tick (baseline)", *(f"{s_old[k] * 1000:.2f}" for k in stats), str(old_stop_ticks)),
     ]
     ratio_median = s_old["median"] / s_new["median"]
     ratio_p99 = s_old["p99"] / s_new["p99"]

@@ -101,7 +101,8 @@ def _rows(now: dict[str, CpuWindow], before: dict[str, CpuWindow] | None) -> lis
 
     rows = [(n, cell(before and before["idle"], n), cell(now["idle"], n),
              cell(before and before["episode"], n), cell(now["episode"], n)) for n in names]
-    rows.append(("**total**", f"{before['idle'].total_cores:.3f}" if before else "—", f"**{now['idle'].total_cores:.3f}**",
+    rows.append(("**total**",
+                 f"{before['idle'].total_cores:.3f}" if before else "—", f"**{now['idle'].total_cores:.3f}**",
                  f"{before['episode'].total_cores:.3f}" if before else "—", f"**{now['episode'].total_cores:.3f}**"))
     return rows
 

@@ -16,7 +16,6 @@ import subprocess
 import sys
 import time
 
-import numpy as np
 import pytest
 
 from bus_schema import topics
@@ -111,7 +110,8 @@ def test_gripper_sample_to_command_latency_and_1khz():
         proc = subprocess.Popen([sys.executable, "-m", "tests.bench.pong", "--endpoint", profile.endpoint,
                                  "--mode", "typed"])
         try:
-            assert wait_until(lambda: any(True for _ in router.liveliness().get("bench/typed/alive/pong", timeout=0.2)), 10)
+            assert wait_until(
+                lambda: any(True for _ in router.liveliness().get("bench/typed/alive/pong", timeout=0.2)), 10)
             echo = _echo_round_trips(profile)
         finally:
             proc.terminate()
@@ -144,7 +144,8 @@ def test_gripper_sample_to_command_latency_and_1khz():
           f"{cb['p99'] / res['gripper_round_trip']['p99']:.2f}x (p99); "
           f"1 kHz stream: {sent} samples in, {steps} controller steps out")
     print(f"inside the gripper service (sample received -> command published), {in_service['samples']} steps: "
-          f"median {in_service['median_us']:.0f} µs, p99 {in_service['p99_us']:.0f} µs (DESIGN §9 target: p99 ≤ 1000 µs)")
+          f"median {in_service['median_us']:.0f} µs, p99 {in_service['p99_us']:.0f} µs "
+          "(DESIGN §9 target: p99 ≤ 1000 µs)")
     save("gripper_bus", {**res, "ratio_median_vs_echo": ratio, "keep_up_1khz": {"samples": sent, "steps": steps},
                          "in_service_sample_to_command": in_service})
     # Samples that arrive bunched (sender or bus jitter) closer than a quarter period to the

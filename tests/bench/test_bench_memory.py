@@ -104,8 +104,8 @@ def test_peak_rss_of_every_service_during_a_handover(tmp_path):
     print(f"\nCPU time of every service over the run ({wall_s:.1f} s wall, start-up included): "
           f"{total_cpu_s:.1f} s in all = {total_cpu_s / wall_s:.2f} cores on average")
     print(table(cpu_rows, ("service", "CPU s", "share")))
-    save("memory", {"peak_rss_mb": peak, "cpu_s": cpu_s, "wall_s": wall_s, "end_of_episode_rss_mb": end_of_episode, "baseline_mb": baseline,
-                    "target_mb": TARGET_MB, "load_average_before": load_before,
+    save("memory", {"peak_rss_mb": peak, "cpu_s": cpu_s, "wall_s": wall_s, "end_of_episode_rss_mb": end_of_episode,
+                    "baseline_mb": baseline, "target_mb": TARGET_MB, "load_average_before": load_before,
                     "over_target": sorted(n for n, mb in peak.items() if mb > TARGET_MB)})
     assert set(peak) == expected, f"sampled {sorted(peak)}, profile has {sorted(expected)}"
     assert all(mb > baseline for mb in peak.values())  # every service holds at least the runtime

@@ -48,7 +48,8 @@ class Frame:
 def _idle_frames(arm: ArmGeometry, n: int = 90) -> list[Frame]:
     sim = KinectSim(seed=2, scenario=KinectScenario(), arm_geometry=arm)
     q = list(RIGHT_ARM_HOME_RAD)
-    js = JointState(seq=0, stamp_ns=0, source="sim", names=list(RIGHT_ARM_JOINTS), position_rad=q, velocity_rad_s=[0.0] * 7)
+    js = JointState(seq=0, stamp_ns=0, source="sim", names=list(RIGHT_ARM_JOINTS), position_rad=q,
+                    velocity_rad_s=[0.0] * 7)
     out = []
     for k in range(n):
         f = sim.step(k / 30.0, np.array(q))

@@ -14,8 +14,9 @@ interrupted campaign resumes) and the table is rewritten to ``docs/data/faults/m
 every run. Cells are filled round by round (every chosen cell gets its 1st run, then its 2nd,
 ...), so a campaign stopped by its budget leaves an even table rather than a few full cells.
 Each run records the commit it ran on, its start (UTC), wall time (and how it split into
-start-up, episode and shutdown) and the machine's 1-minute load at its end; the launcher output of a run that broke an invariant, that ended in a stop its
-fault does not explain (`unexplained_stop`) or that the harness could not finish is kept in
+start-up, episode and shutdown) and the machine's 1-minute load at its end; the launcher output
+of a run that broke an invariant, that ended in a stop its fault does not explain
+(`unexplained_stop`) or that the harness could not finish is kept in
 ``docs/data/faults/matrix_logs/<service>-<phase>-<fault>-<seed>.log`` for diagnosis.
 
 Per service, delay/drop/flood hit the topic it publishes that the handover depends on most

@@ -48,17 +48,20 @@ def _commit_date(commit: str) -> str:
 
 
 EXPLAIN = {
-    "motion/transfer/freeze#1@22ddb36": ("**Fixed.** Not the frozen motion service: the supervisor's log shows the bridge, "
-                           "gripper, tracker, Kinect and planner all 'silent' at one instant, i.e. the supervisor "
-                           "itself had been starved and judged before taking in what waited in its socket; the "
-                           "stop named the bridge, so the fault was not named. A late supervisor loop now takes "
-                           "queued messages in first ([watchdogs](supervisor.md#watchdogs), `tests/integration/test_supervisor_stall.py`)."),
-    "supervisor/locate/drop#0@ec337ac": ("**Fixed.** Half of `motion/goal` dropped: a lost pick or reach goal left the episode "
-                             "waiting for a move that never started, until the move's time-out (`failed`, exit 1). "
-                             "The supervisor now sends a goal again until motion reports on it, motion acts on each "
-                             "goal once, and the bridge ends a stop only with a goal sent after it "
-                             "([Supervisor](supervisor.md#the-state-machine)); "
-                             "the cells hand over since."),
+    "motion/transfer/freeze#1@22ddb36": (
+        "**Fixed.** Not the frozen motion service: the supervisor's log shows the bridge, "
+        "gripper, tracker, Kinect and planner all 'silent' at one instant, i.e. the supervisor "
+        "itself had been starved and judged before taking in what waited in its socket; the "
+        "stop named the bridge, so the fault was not named. A late supervisor loop now takes "
+        "queued messages in first ([watchdogs](supervisor.md#watchdogs), "
+        "`tests/integration/test_supervisor_stall.py`)."),
+    "supervisor/locate/drop#0@ec337ac": (
+        "**Fixed.** Half of `motion/goal` dropped: a lost pick or reach goal left the episode "
+        "waiting for a move that never started, until the move's time-out (`failed`, exit 1). "
+        "The supervisor now sends a goal again until motion reports on it, motion acts on each "
+        "goal once, and the bridge ends a stop only with a goal sent after it "
+        "([Supervisor](supervisor.md#the-state-machine)); "
+        "the cells hand over since."),
 }
 EXPLAIN["supervisor/pick/drop#0@ec337ac"] = EXPLAIN["supervisor/locate/drop#0@ec337ac"]
 
@@ -233,7 +236,8 @@ def main(argv: list[str] | None = None) -> int:
     for r in bad:
         why = EXPLAIN.get(f"{r['key']}#{r['seed']}@{r['commit']}", "**Not explained yet**: see the log.")
         log = f" (`docs/data/faults/{r['log']}`)" if r.get("log") else ""
-        vio_lines.append(f"- `{r['key']}` run {r['seed'] + 1} on `{r['commit']}`: {'; '.join(r['violations'])[:300]}{log}. {why}")
+        vio_lines.append(f"- `{r['key']}` run {r['seed'] + 1} on `{r['commit']}`: "
+                         f"{'; '.join(r['violations'])[:300]}{log}. {why}")
     # stops that the injected fault does not explain (`matrix.unexplained_stop`)
     odd, odd_since_fix = [], []
     for r in runs:
@@ -252,6 +256,12 @@ def main(argv: list[str] | None = None) -> int:
         if _since(r["commit"], "904bbe4"):
             odd_since_fix.append(run_id)
     since_fix = sum(1 for r in runs if _since(r["commit"], "904bbe4"))
+    odd_named = " (" + ", ".join(f"`{k}`" for k in odd_since_fix) + ")" if odd_since_fix else ""
+    stamped_kills = [r for r in runs if r["key"].endswith("/kill") and r.get("latency_by") == "stamps"
+                     and not r["key"].startswith("recorder")]
+    slow_kills = ", ".join(f"`{r['key']}` {r['detection_s'] * 1e3:.0f} ms" for r in stamped_kills
+                           if (r.get("detection_s") or 0) > 0.1)
+    n_stamped_kills = sum(1 for r in stamped_kills if r.get("detection_s") is not None)
     summ = summary(results)
     table = render(results).split(summ + "\n", 1)[1].strip()
     done = least >= 10 and len(results) == len(cells)
@@ -306,9 +316,9 @@ stream and 250 ms heartbeat watchdogs:
 {chr(10).join("- " + o for o in odd) if odd else "none."}
 
 Since the supervisor learned to take queued messages in when its own loop was late
-(`904bbe4`), {len(odd_since_fix)} of {since_fix} runs ended in such a stop{" (" + ", ".join(f"`{k}`" for k in odd_since_fix) + ")" if odd_since_fix else ""}.
-Kill detection above the 100 ms target: {", ".join(f"`{r['key']}` {r['detection_s'] * 1e3:.0f} ms" for r in runs if r["key"].endswith("/kill") and r.get("latency_by") == "stamps" and (r.get("detection_s") or 0) > 0.1 and not r["key"].startswith("recorder"))}
-(of {sum(1 for r in runs if r["key"].endswith("/kill") and r.get("latency_by") == "stamps" and r.get("detection_s") is not None and not r["key"].startswith("recorder"))} stamped kill runs of critical services), with the campaign's
+(`904bbe4`), {len(odd_since_fix)} of {since_fix} runs ended in such a stop{odd_named}.
+Kill detection above the 100 ms target: {slow_kills}
+(of {n_stamped_kills} stamped kill runs of critical services), with the campaign's
 observer beside the stack.{_late_liveliness_text(runs)}
 
 A 0.3 s delay of the bridge's `robot/joint_state` ends in a protective stop (`bridge:

@@ -115,8 +115,9 @@ def test_campaign_keeps_the_logs_of_runs_with_violations_or_unexplained_stops_on
     def fake_judge(rec, strict_exit):
         bad = rec.plan.kind == "flood"
         odd = rec.plan.kind == "delay"  # the stop blames the gripper, the fault hit motion
-        return SimpleNamespace(violations=["arm moved"] if bad else [], outcome="protective_stop" if odd else "released",
-                               exit_code=1 if odd else 0, exit_line=SUPERVISOR_STOP if odd else "[launcher] exit 0",
+        return SimpleNamespace(violations=["arm moved"] if bad else [],
+                               outcome="protective_stop" if odd else "released", exit_code=1 if odd else 0,
+                               exit_line=SUPERVISOR_STOP if odd else "[launcher] exit 0",
                                detection_s={}, stop_s={})
 
     monkeypatch.setattr(matrix, "run_with_faults", fake_run)
@@ -222,7 +223,8 @@ def test_a_run_stopped_by_a_starved_service_before_its_fault_is_told_apart():
     from tests.faults.invariants import FaultPlan, RunRecord
 
     plans = [FaultPlan("freeze", "tracker", "transfer", offset_s=0.3, duration_s=1.0)]
-    starved = "[launcher] exit 1: episode 1: protective_stop: protective stop: gripper: silent: no heartbeat for 0.252 s"
+    starved = ("[launcher] exit 1: episode 1: protective_stop: protective stop: gripper: silent: "
+               "no heartbeat for 0.252 s")
     rec = RunRecord(receiver="absent", exit_line=starved, phases_missed=["freeze tracker @ transfer"])
     assert stopped_before_the_fault(rec, plans) == starved
     # The faulted service itself silent before its fault: not a starved bystander, no second run.
@@ -240,18 +242,21 @@ def test_a_run_stopped_by_a_starved_service_before_its_fault_is_told_apart():
 def test_a_run_without_faults_stopped_by_a_silent_service_is_told_apart():
     from tests.faults.invariants import RunRecord
 
-    starved = "[launcher] exit 1: episode 1: protective_stop: protective stop: tracker: silent: no heartbeat for 0.252 s"
+    starved = ("[launcher] exit 1: episode 1: protective_stop: protective stop: tracker: silent: "
+               "no heartbeat for 0.252 s")
     assert stopped_before_the_fault(RunRecord(receiver="dropping", exit_line=starved), []) == starved
     gone = starved.replace("silent: no heartbeat for 0.252 s", "process gone (liveliness token lost)")
     assert stopped_before_the_fault(RunRecord(receiver="dropping", exit_line=gone), []) is None
-    assert stopped_before_the_fault(RunRecord(receiver="dropping", exit_line="[launcher] exit 0: 1 episode(s)"), []) is None
+    released = RunRecord(receiver="dropping", exit_line="[launcher] exit 0: 1 episode(s)")
+    assert stopped_before_the_fault(released, []) is None
 
 
 def test_a_stack_stopped_before_its_fault_is_run_once_more_and_only_once(tmp_path, monkeypatch, capsys):
     from tests.faults import matrix
     from tests.faults.invariants import RunRecord
 
-    starved = "[launcher] exit 1: episode 1: protective_stop: protective stop: tracker: silent: no heartbeat for 0.252 s"
+    starved = ("[launcher] exit 1: episode 1: protective_stop: protective stop: tracker: silent: "
+               "no heartbeat for 0.252 s")
     released = "[launcher] exit 0: 1 episode(s)"
     calls: list[dict] = []
 
@@ -264,12 +269,14 @@ def test_a_stack_stopped_before_its_fault_is_run_once_more_and_only_once(tmp_pat
         return run_with_faults
 
     monkeypatch.setattr(matrix, "run_with_faults", fake_runs([released]))
-    rec, first = matrix.run_again_if_stopped_before_the_fault("clean", [], receiver="taking", log_path=tmp_path / "a.log")
+    rec, first = matrix.run_again_if_stopped_before_the_fault("clean", [], receiver="taking",
+                                                              log_path=tmp_path / "a.log")
     assert (rec.exit_line, first, len(calls)) == (released, None, 1)
 
     calls.clear()
     monkeypatch.setattr(matrix, "run_with_faults", fake_runs([starved, starved, released]))
-    rec, first = matrix.run_again_if_stopped_before_the_fault("twice", [], receiver="taking", log_path=tmp_path / "b.log")
+    rec, first = matrix.run_again_if_stopped_before_the_fault("twice", [], receiver="taking",
+                                                              log_path=tmp_path / "b.log")
     assert rec.exit_line == starved and first == starved  # the second stop is returned, not run a third time
     assert [c["log_path"].name for c in calls] == ["b.log", "b-again.log"]
     assert "twice: stack stopped before the fault" in capsys.readouterr().out

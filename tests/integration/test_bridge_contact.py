@@ -18,7 +18,8 @@ pytestmark = pytest.mark.integration
 def _run(bus, make_node, behaviour, grip_schedule, seconds=3.0):
     """Run the bridge with a receiver; grip_schedule(t) → grip command (N) or None."""
     profile, router = bus
-    with ServiceProcess("services.bridge", profile, ["--receiver", behaviour, "--seed", "3", "--scenario", "transfer"]) as bridge:
+    args = ["--receiver", behaviour, "--seed", "3", "--scenario", "transfer"]
+    with ServiceProcess("services.bridge", profile, args) as bridge:
         wait_alive(router, profile, {"bridge"})
         node = make_node()
         truth = node.subscribe(topics.SIM_TRUTH, queue_size=10_000)

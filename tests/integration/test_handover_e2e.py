@@ -65,7 +65,8 @@ def test_taking_receiver_gets_the_object_and_the_arm_stops_at_the_release(standi
     # Ordered by the senders' stamps (one host clock): receive times in this process can swap
     # two messages of different keys when it is starved of CPU.
     stops = [m for _t, m in rec.stops if m.reason == "release" and m.stamp_ns >= release.stamp_ns]
-    assert stops, f"no release stop: stops {[(m.reason, m.stamp_ns) for _t, m in rec.stops]}, release {release.stamp_ns}"
+    assert stops, (f"no release stop: stops {[(m.reason, m.stamp_ns) for _t, m in rec.stops]}, "
+                   f"release {release.stamp_ns}")
     joints, t_rel = by_stamp(rec.joints), stamp_s(release)
     rest = first_rest_after(joints, t_rel)
     assert rest is not None and rest - t_rel < 0.2

@@ -10,10 +10,8 @@
 from __future__ import annotations
 
 import json
-import math
 import os
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -130,6 +128,7 @@ def test_reaches_a_transfer_pose_and_a_stop_halts_it(stack, make_node):
     }
     print("\nmotion stop → arm at rest (JointState):", json.dumps(summary, indent=1))
     # DESIGN §8 asks for p99 ≤ 50 ms; with the sim's first-order servo (τ = 50 ms) the measured
-    # p99 was ~150–250 ms before the bridge honoured feed-forward, ~80 ms now (docs/motion.md). This bound catches a stop that does not act at all
-    # (a coasting arm would need the rest of the reach, ~0.7 s).
+    # p99 was ~150–250 ms before the bridge honoured feed-forward, ~80 ms now (docs/motion.md). This
+    # bound catches a stop that does not act at all (a coasting arm would need the rest of the reach,
+    # ~0.7 s).
     assert summary["stop_to_rest_ms_p99"] <= 350.0, summary

@@ -93,7 +93,8 @@ def test_only_the_allowed_service_publishes_safety_keys(multihost):
 def test_ros1_side_commands_only_from_the_bridge(multihost):
     profile, _, _ = multihost
     received: list[bytes] = []
-    key = "6261787465725f636f72655f6d7367732f4a6f696e74436f6d6d616e64/19bfec8434dd568ab3c633d187c36f2e/robot/limb/right/joint_command"
+    key = ("6261787465725f636f72655f6d7367732f4a6f696e74436f6d6d616e64/19bfec8434dd568ab3c633d187c36f2e"
+           "/robot/limb/right/joint_command")
     robot = open_session(profile, "client", timeout_s=5.0, user="ros1")
     try:
         sub = robot.declare_subscriber(key, lambda s: received.append(s.payload.to_bytes()))

@@ -30,8 +30,10 @@ def test_tracker_process_publishes_human_and_object_and_survives_garbage_and_sil
         humans: queue.Queue = queue.Queue()
         objects: queue.Queue = queue.Queue()
         subs = [
-            session.declare_subscriber(T.HUMAN.key(profile.prefix), lambda s: humans.put(decode(T.HUMAN, s.payload.to_bytes()))),
-            session.declare_subscriber(T.OBJECT.key(profile.prefix), lambda s: objects.put(decode(T.OBJECT, s.payload.to_bytes()))),
+            session.declare_subscriber(T.HUMAN.key(profile.prefix),
+                                       lambda s: humans.put(decode(T.HUMAN, s.payload.to_bytes()))),
+            session.declare_subscriber(T.OBJECT.key(profile.prefix),
+                                       lambda s: objects.put(decode(T.OBJECT, s.payload.to_bytes()))),
         ]
         pubs = {t: session.declare_publisher(t.key(profile.prefix)) for t in (T.SKELETON, T.DEPTH, T.JOINT_STATE)}
         try:
@@ -44,7 +46,8 @@ def test_tracker_process_publishes_human_and_object_and_survives_garbage_and_sil
                 end = time.monotonic() + 15.0
                 while time.monotonic() < end and not (got_tracked and not objects.empty()):
                     f = frames[seq % len(frames)]
-                    pubs[T.JOINT_STATE].put(encode(JointState(seq=seq, stamp_ns=0, source="sim", names=list(RIGHT_ARM_JOINTS),
+                    pubs[T.JOINT_STATE].put(encode(JointState(seq=seq, stamp_ns=0, source="sim",
+                                                              names=list(RIGHT_ARM_JOINTS),
                                                               position_rad=list(q), velocity_rad_s=[0.0] * 7)))
                     pubs[T.DEPTH].put(encode(DepthImage(seq=seq, stamp_ns=0, source="sim", **f.depth_fields)))
                     pubs[T.SKELETON].put(encode(Skeleton(seq=seq, stamp_ns=0, source="sim", **f.skeleton_fields)))

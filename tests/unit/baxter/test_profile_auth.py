@@ -71,7 +71,8 @@ def test_credentials_problems_are_clear(tmp_path, monkeypatch):
     other.write_text("motion:m\n")
     other.chmod(0o600)
     monkeypatch.setenv("HANDOVER_BUS_CREDENTIALS", str(other))
-    assert zenoh_config_dict(_profile(tmp_path), "client", user="motion")["transport"]["auth"]["usrpwd"]["password"] == "m"
+    conf = zenoh_config_dict(_profile(tmp_path), "client", user="motion")
+    assert conf["transport"]["auth"]["usrpwd"]["password"] == "m"
 
 
 def test_shipped_profiles_load_and_sim_stays_loopback_without_auth():

@@ -52,7 +52,8 @@ VECTORS = [
 ]
 
 
-@pytest.mark.parametrize(("msg", "hex_bytes"), VECTORS, ids=[f"{type(m).__name__}{i}" for i, (m, _) in enumerate(VECTORS)])
+@pytest.mark.parametrize(("msg", "hex_bytes"), VECTORS,
+                         ids=[f"{type(m).__name__}{i}" for i, (m, _) in enumerate(VECTORS)])
 def test_encoding_matches_the_hand_written_bytes(msg, hex_bytes):
     assert msg.to_bytes().hex() == hex_bytes
     assert type(msg).from_bytes(bytes.fromhex(hex_bytes)) == msg

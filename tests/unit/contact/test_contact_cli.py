@@ -36,7 +36,8 @@ def test_external_controller_by_import_path(tmp_path):
 def test_batch_summary(tmp_path, capsys):
     out = tmp_path / "b.json"
     code = main(["batch", "--behaviour", "dropping", "-n", "10", "--workers", "1", "--chunk-size", "10",
-                 "--controller", "constant", "--grip-n", "60", "--duration-s", "2.5", "--no-progress", "--json", str(out)])
+                 "--controller", "constant", "--grip-n", "60", "--duration-s", "2.5", "--no-progress",
+                 "--json", str(out)])
     assert code == 0
     doc = json.loads(out.read_text())
     assert doc["episodes"] == 10 and doc["drop_rate"] == 0.0 and doc["released_rate"] == 0.0

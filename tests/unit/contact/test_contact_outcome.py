@@ -78,7 +78,8 @@ def test_accumulator_matches_trace_rules():
 
 
 def test_same_seed_same_episode_bit_for_bit():
-    cfg = quiet_config(sensors=SensorParams(ft_noise_std_n=0.05, ft_bias_std_n=0.1, accel_noise_snr_db=3.0, grip_noise_snr_db=3.0))
+    cfg = quiet_config(sensors=SensorParams(ft_noise_std_n=0.05, ft_bias_std_n=0.1, accel_noise_snr_db=3.0,
+                                            grip_noise_snr_db=3.0))
     a = run_episode(cfg, taking(0.3), ConstantGrip(8.0), seed=11).trace
     b = run_episode(cfg, taking(0.3), ConstantGrip(8.0), seed=11).trace
     c = run_episode(cfg, taking(0.3), ConstantGrip(8.0), seed=12).trace
@@ -124,8 +125,10 @@ def test_batch_drop_rates_follow_the_physics():
     # Dropping receivers against an open-loop release drop; against a grip the receiver
     # cannot overcome (mu_s * 60 N = 36 N > 30 N max grasp strength) they never do.
     cfg = quiet_config(duration_s=3.5)
-    rel = run_batch(cfg, "dropping", 24, functools.partial(ReleaseAfter, 10.0, 1.9), seed=1, workers=1, chunk_size=24, progress=False)
-    hold = run_batch(cfg, "dropping", 24, functools.partial(ConstantGrip, 60.0), seed=1, workers=1, chunk_size=24, progress=False)
+    rel = run_batch(cfg, "dropping", 24, functools.partial(ReleaseAfter, 10.0, 1.9), seed=1, workers=1, chunk_size=24,
+                    progress=False)
+    hold = run_batch(cfg, "dropping", 24, functools.partial(ConstantGrip, 60.0), seed=1, workers=1, chunk_size=24,
+                     progress=False)
     assert rel.outcome.dropped.mean() > 0.9
     assert hold.outcome.dropped.sum() == 0 and hold.outcome.released.sum() == 0
 

@@ -57,7 +57,8 @@ def test_sliding_decelerates_and_resticks_when_friction_exceeds_load():
     # In every slipping step, the true acceleration is g - mu_k F_G / M (velocity > 0, down).
     moving = slip & (tr.object_velocity_y_m_s > 0) & (np.roll(tr.object_velocity_y_m_s, 1) > 0)
     moving[0] = False
-    np.testing.assert_allclose(tr.object_accel_y_m_s2[moving], GRAVITY_M_S2 - MU_K * fg[moving] / M, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(tr.object_accel_y_m_s2[moving], GRAVITY_M_S2 - MU_K * fg[moving] / M,
+                               rtol=1e-9, atol=1e-9)
     # It decelerated at some point, stopped, and stuck for good.
     assert np.any(tr.object_accel_y_m_s2[moving] < 0)
     stick_at = np.flatnonzero(slip)[-1] + 1

@@ -104,7 +104,8 @@ def test_optical_gap_over_4mm_makes_it_blind_in_an_episode():
     assert not tr.optical_valid[blind:].any()
     assert np.all(tr.accel_estimate_y_m_s2[blind:] == 0.0)
     # Thesis gripper (touching at zero force, gap 0): it sees the object slide and reads ~g.
-    cfg = quiet_config(duration_s=0.07, sensors=SensorParams(ft_noise_std_n=0.0, ft_bias_std_n=0.0, optical_report_rate_hz=100.0))
+    cfg = quiet_config(duration_s=0.07,
+                       sensors=SensorParams(ft_noise_std_n=0.0, ft_bias_std_n=0.0, optical_report_rate_hz=100.0))
     tr = run_episode(cfg, absent(), ConstantGrip(0.0), seed=0).trace
     assert tr.optical_valid.all()
     i30 = int(np.flatnonzero(np.isclose(tr.time_s, 0.03))[0])

@@ -63,7 +63,8 @@ def test_fst_is_where_the_model_starts_to_slip():
 
 def test_printed_equation_differs():
     fs = FS_PRESETS["FS2"]
-    assert A.start_force_threshold_n(0.0, fs, printed_equation=True) != pytest.approx(A.start_force_threshold_n(0.0, fs), rel=1e-3)
+    assert (A.start_force_threshold_n(0.0, fs, printed_equation=True)
+            != pytest.approx(A.start_force_threshold_n(0.0, fs), rel=1e-3))
 
 
 def test_phi_max_closed_form_and_asymptote():
@@ -109,13 +110,15 @@ def fbt_closed_form(phi, fs, plant, target):
     n0, n1 = w * k, s * k - fs.gamma * c
     t2 = target**2
     roots = np.roots([mu**2 * n1**2 - t2, 2 * mu**2 * n0 * n1 - t2 * 2 * w * s, mu**2 * n0**2 - t2 * w**2])
-    return sorted(r.real for r in roots if abs(r.imag) < 1e-9 and r.real > 0 and np.sign(mu * (n0 + n1 * r.real)) == np.sign(target))
+    return sorted(r.real for r in roots
+                  if abs(r.imag) < 1e-9 and r.real > 0 and np.sign(mu * (n0 + n1 * r.real)) == np.sign(target))
 
 
 def test_fbt_no_integrator_matches_closed_form():
     fs = FS_PRESETS["FS-sim-g1"]
     # φ = 0 by hand: 0.75 F² − 2.5 W F − 5.25 W² = 0 -> F = W (2.5 + sqrt(22)) / 1.5
-    assert A.stable_force_threshold_n(0.0, fs, with_integrator=False) == pytest.approx(W * (2.5 + math.sqrt(22.0)) / 1.5, rel=1e-9)
+    assert A.stable_force_threshold_n(0.0, fs, with_integrator=False) == pytest.approx(
+        W * (2.5 + math.sqrt(22.0)) / 1.5, rel=1e-9)
     for phi_deg in (-30.0, -10.0, 5.0):
         phi = math.radians(phi_deg)
         roots = fbt_closed_form(phi, fs, PLANT, -1.0)

@@ -45,5 +45,6 @@ def test_reproduction_writes_recordings_and_table(tmp_path):
 
 @pytest.mark.long
 def test_reproduction_pngs(tmp_path):
-    assert cli_reproduce.main(["--preset", "FS-sim-g5", "--img-dir", str(tmp_path), "--no-rrd", "--table", str(tmp_path / "t.md")]) == 0
+    assert cli_reproduce.main(["--preset", "FS-sim-g5", "--img-dir", str(tmp_path), "--no-rrd",
+                               "--table", str(tmp_path / "t.md")]) == 0
     assert (tmp_path / "gripper_fig20_g5.png").stat().st_size > 10_000

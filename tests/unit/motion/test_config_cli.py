@@ -28,7 +28,8 @@ def test_config_defaults_and_overrides():
     ],
 )
 def test_config_rejects_bad_values(table, message):
-    with pytest.raises(MotionConfigError, match=message.replace("(", r"\(").replace(")", r"\)").replace("[", r"\[").replace("]", r"\]")):
+    pattern = message.replace("(", r"\(").replace(")", r"\)").replace("[", r"\[").replace("]", r"\]")
+    with pytest.raises(MotionConfigError, match=pattern):
         MotionConfig.from_dict(table)
 
 

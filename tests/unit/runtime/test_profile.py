@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from bus_schema import MAX_PAYLOAD_BYTES
 from services.runtime.errors import ProfileError
 from services.runtime.profile import load_profile_file, validate_endpoint, zenoh_config, zenoh_config_dict
 
@@ -82,3 +83,22 @@ def test_service_specs_from_profile():
     assert bridge is not None and bridge.safety and bridge.restart == "never"
     assert profile.service_config("bridge")["command_timeout_s"] == 0.2
     assert profile.service_config("nobody") == {}
+
+
+@pytest.mark.parametrize("side", ["listen", "connect"])
+def test_overrides_cannot_open_a_non_loopback_endpoint(tmp_path, side):
+    path = tmp_path / "p.toml"
+    path.write_text(f'[bus]\nendpoint = "tcp/127.0.0.1:7999"\n[bus.zenoh.{side}]\nendpoints = ["tcp/0.0.0.0:7999"]\n')
+    profile = load_profile_file(path)
+    with pytest.raises(ProfileError, match="not on loopback"):
+        zenoh_config_dict(profile, "router")
+
+
+def test_overrides_cannot_raise_the_message_size_cap(tmp_path):
+    path = tmp_path / "p.toml"
+    path.write_text('[bus]\nendpoint = "tcp/127.0.0.1:7999"\n'
+                    '[bus.zenoh.transport.link.rx]\nmax_message_size = 1073741824\n')
+    conf = zenoh_config_dict(load_profile_file(path), "client")
+    assert conf["transport"]["link"]["rx"]["max_message_size"] == MAX_PAYLOAD_BYTES + 65536
+    path.write_text('[bus]\nendpoint = "tcp/127.0.0.1:7999"\n[bus.zenoh.transport.link.rx]\nmax_message_size = 4096\n')
+    assert zenoh_config_dict(load_profile_file(path), "client")["transport"]["link"]["rx"]["max_message_size"] == 4096

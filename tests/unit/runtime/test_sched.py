@@ -355,7 +355,8 @@ def test_a_service_whose_process_is_stopped_is_silent_after_two_beats_not_the_fu
     excuser.stopped_services = {"gripper"}
     assert dog.check(0.09) == []  # under two beats: not judged yet
     faults = dog.check(0.11)
-    assert [(f.service, f.detail) for f in faults] == [("gripper", "silent: no heartbeat for 0.110 s, its process is stopped")]
+    assert [(f.service, f.detail) for f in faults] == [
+        ("gripper", "silent: no heartbeat for 0.110 s, its process is stopped")]
     assert dog.check(0.3) == []  # the bridge, quiet but not stopped: excused (starved), not stopped
 
 

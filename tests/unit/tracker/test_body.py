@@ -21,7 +21,8 @@ FLOOR = -scene.BASE_HEIGHT_ABOVE_FLOOR_M
 
 @pytest.mark.parametrize(
     "height, posture, jitter",
-    [(1.55, "standing", 0.05), (1.75, "standing", 0.10), (1.95, "standing", 0.07), (1.65, "sitting", 0.05), (1.85, "sitting", 0.10)],
+    [(1.55, "standing", 0.05), (1.75, "standing", 0.10), (1.95, "standing", 0.07),
+     (1.65, "sitting", 0.05), (1.85, "sitting", 0.10)],
 )
 def test_body_dimensions_within_tolerance(height, posture, jitter):
     body = ReceiverBody(BodySize(height, posture))

@@ -140,7 +140,8 @@ def test_object_detection_equals_the_whole_cloud_detection(frames, arm):
         pipe.on_skeleton(skeleton_frame_from_message(Skeleton(seq=0, stamp_ns=0, source="t", **f.skeleton_fields), t))
         pipe.on_depth(frame)
         exclude = pipe._excluded_points
-        for kwargs in ({}, {"exclude_points": exclude}, {"exclude_points": exclude, "min_height_m": 0.05, "min_pixels": 60}):
+        for kwargs in ({}, {"exclude_points": exclude},
+                       {"exclude_points": exclude, "min_height_m": 0.05, "min_pixels": 60}):
             got = detect_object(frame, FLOOR_Z_M, **kwargs)
             ref = reference_detect_object(frame, FLOOR_Z_M, **kwargs)
             assert (got.found, got.pixels, got.reason) == (ref.found, ref.pixels, ref.reason)

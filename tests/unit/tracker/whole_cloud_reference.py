@@ -100,7 +100,8 @@ def reference_detect_object(
     areas = stats[1:, cv2.CC_STAT_AREA]
     best = int(np.argmax(areas)) + 1
     if stats[best, cv2.CC_STAT_AREA] < min_pixels:
-        return ObjectDetection(False, none, none, plane, reason=f"largest blob has {int(areas.max())} px < {min_pixels}")
+        return ObjectDetection(False, none, none, plane,
+                               reason=f"largest blob has {int(areas.max())} px < {min_pixels}")
     blob = labels == best
     pts = points_m[blob].astype(float)
     hts = height[blob].astype(float)
