@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from robot_sim.baxter import arm_model
-from robot_sim.contact.config import ObjectParams, SimConfig
+from robot_sim.contact.config import ContactSimError, ObjectParams, SimConfig
 from robot_sim.contact.plant import ContactPlant
 from robot_sim.contact.receiver import behaviour_by_name
 from services.bridge.backend import INT16_MAX, PublishFn, SimBackend, clip_finite
@@ -62,7 +62,7 @@ class ContactSimBackend(SimBackend):
             self.plant = ContactPlant(config, params, seed=seed, initial_grip_force_n=initial_grip_force_n)
         except TypeError as exc:
             raise BridgeConfigError(f"invalid [services.bridge.config.contact.receiver]: {exc}") from None
-        except Exception as exc:  # the plant's own validation (ContactSimError) says what is wrong
+        except (ContactSimError, ValueError) as exc:  # the plant's own validation says what is wrong
             raise BridgeConfigError(f"invalid [services.bridge.config.contact]: {exc}") from None
         self.behaviour = behaviour
         self.grip_command_n = float(initial_grip_force_n)

@@ -208,7 +208,7 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
             for sub in subscribers:
                 try:
                     sub.undeclare()
-                except Exception:  # the session may already be closing
+                except Exception:  # noqa: BLE001 - best-effort close: the session may already be closing
                     pass
         log.info("gripper stopped", extra=kv(steps=core.steps, holds=core.holds, released=core.released,
                                              commands_sent=loop.command_gate.sent,

@@ -20,7 +20,7 @@ from services.planner.config import PlannerConfig, load_config
 from services.planner.core import DyadGeometry, TransferPlan, plan_transfer, timing_for
 from services.planner.errors import PlannerError
 from services.planner.experiment import EMPTY_CUP_KG, FULL_CUP_KG, four_positions, heavy_light_positions
-from services.runtime import base_parser, load_profile, run_main
+from services.runtime import ProfileError, base_parser, load_profile, run_main
 
 NAMED_BODIES = {"robot": ROBOT_AS_HUMAN, "figure3": FIGURE3_ACTOR}
 
@@ -85,7 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _config(args: argparse.Namespace) -> PlannerConfig:
     try:
         table = load_profile(args).service_config("planner")
-    except Exception:
+    except (ProfileError, OSError, ValueError):  # missing, unreadable or invalid
         # A bus-free answer must not depend on a deploy profile; use the defaults.
         table = {}
     return load_config(table)

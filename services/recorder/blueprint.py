@@ -159,7 +159,7 @@ def _robot_overrides(robot_name: str) -> dict[str, rrb.EntityBehavior]:
         from robot_sim.baxter import urdf_path
 
         links = links_without_importable_mesh(urdf_path())
-    except Exception:  # the model is optional for a recording: then show everything
+    except Exception:  # noqa: BLE001 - the model is optional for a recording: then show everything
         links = ()
     overrides.update({f"{robot_name}/visual_geometries/{link}": rrb.EntityBehavior(visible=False) for link in links})
     return overrides

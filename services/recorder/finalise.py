@@ -113,7 +113,7 @@ def has_footer(path: Path) -> bool:
 
     try:
         return bool(rerun_bindings.check_for_rrd_footer(str(path)))
-    except Exception:  # unreadable: not finalised
+    except Exception:  # noqa: BLE001 - unreadable (Rerun's bindings raise several types): not finalised
         return False
 
 
@@ -131,7 +131,7 @@ def read_contents(path: Path) -> Contents:
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message="RRD file has no footer")
             reader = rrc.RrdReader(str(path))
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - whatever Rerun's reader raises becomes RecordingUnreadable
         raise RecordingUnreadable(f"{path} is not a Rerun recording ({_first_line(exc)}); left unchanged") from None
     stores = [*reader.recordings(), *reader.blueprints()]  # a file cut off mid-message raises here
     if not stores:
@@ -170,7 +170,7 @@ def finalise(path: Path) -> FinaliseReport:
         before: Contents | None = read_contents(path)
     except RecordingUnreadable:
         raise
-    except Exception as exc:  # cut off by a SIGKILL mid-write: its last message is incomplete
+    except Exception as exc:  # noqa: BLE001 - cut off by a SIGKILL mid-write: its last message is incomplete
         before, damaged_end = None, _first_line(exc)
     try:
         work = Path(tempfile.mkdtemp(prefix=f".{path.stem}.finalise-", dir=path.parent))  # same file system

@@ -34,7 +34,7 @@ def _reader(path: Path) -> rrc.RrdReader:
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message="RRD file has no footer")
             return rrc.RrdReader(str(path))
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - whatever Rerun's reader raises becomes a RecorderError
         raise RecorderError(f"{path} is not a readable Rerun recording: {exc}") from None
 
 

@@ -141,7 +141,7 @@ class RecordingWriter:
 
             try:
                 self.robot = RobotModel(self.rec, self.config.robot_model, self.config.robot_pose_every)
-            except Exception as exc:  # the recording is still useful without the model
+            except Exception as exc:  # noqa: BLE001 - the recording is still useful without the model
                 log.warning("could not log Baxter's model: %s", exc)
         styles: dict[str, list] = {}
         for entity, archetype in static_styles():

@@ -142,7 +142,7 @@ class FaultyPut:
                 time.sleep(wait)
             try:
                 self._put(payload)
-            except Exception:  # the session closed while a delayed message waited
+            except Exception:  # noqa: BLE001 - shutdown: the session closed while a delayed message waited
                 return
 
     def close(self) -> None:

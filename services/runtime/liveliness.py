@@ -22,10 +22,10 @@ def alive_services(session: zenoh.Session, prefix: str, timeout_s: float = 0.5) 
     names: set[str] = set()
     replies = session.liveliness().get(head + "*", timeout=timeout_s)
     for reply in replies:
-        try:
-            key = str(reply.ok.key_expr)
-        except Exception:
+        sample = reply.ok
+        if sample is None:  # an error reply
             continue
+        key = str(sample.key_expr)
         if key.startswith(head):
             names.add(key[len(head):])
     return names
@@ -85,5 +85,5 @@ class LivelinessWatcher:
     def undeclare(self) -> None:
         try:
             self._sub.undeclare()
-        except Exception:
+        except Exception:  # noqa: BLE001 - best-effort close: the session may already be closed
             pass

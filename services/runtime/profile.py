@@ -523,7 +523,7 @@ def zenoh_config(profile: Profile, mode: Literal["client", "router", "peer"], us
 
     try:
         return zenoh.Config.from_json5(json.dumps(zenoh_config_dict(profile, mode, user)))
-    except Exception as exc:  # zenoh raises ZError
+    except Exception as exc:  # noqa: BLE001 - zenoh.ZError, or our own checks: one ProfileError line either way
         raise ProfileError(f"invalid Zenoh settings in the profile: {exc}") from None
 
 

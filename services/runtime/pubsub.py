@@ -107,7 +107,7 @@ class TypedSubscription(Generic[M]):
             while True:
                 try:
                     sample = try_recv()
-                except Exception:  # the session closed under us
+                except Exception:  # noqa: BLE001 - shutdown: the session closed under us
                     return
                 if sample is None:
                     return
@@ -130,7 +130,7 @@ class TypedSubscription(Generic[M]):
                 rejected=stats.rejected,
             )
             return False
-        except Exception as exc:  # never let anything escape into Zenoh's thread
+        except Exception as exc:  # noqa: BLE001 - never let anything escape into Zenoh's thread
             stats.rejected += 1
             self._bad_log.warning(self.key, f"dropped payload on {self.key}: {exc!r}")
             return False
@@ -180,7 +180,7 @@ class TypedSubscription(Generic[M]):
     def undeclare(self) -> None:
         try:
             self._subscriber.undeclare()
-        except Exception:  # already closed with the session
+        except Exception:  # noqa: BLE001 - best-effort close: already closed with the session
             pass
 
 
@@ -237,5 +237,5 @@ class TypedPublisher(Generic[M]):
             self._send.close()
         try:
             self._publisher.undeclare()
-        except Exception:
+        except Exception:  # noqa: BLE001 - best-effort close: already closed with the session
             pass

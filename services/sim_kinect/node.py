@@ -70,7 +70,7 @@ def run_kinect(profile: Profile, config: KinectConfig) -> int:
                         t0 = time.monotonic()
                     frame = sim.step(time.monotonic() - t0, q, object_position_m=scene.object_position_m,
                                      right_hand_m=scene.right_hand_m)
-                except Exception as exc:  # a bad frame must not kill the camera
+                except Exception as exc:  # noqa: BLE001 - a bad frame must not kill the camera
                     failed += 1
                     warn.warning("render", f"simulated Kinect frame failed: {exc!r}", failed=failed)
                     continue

@@ -82,6 +82,6 @@ class KinectThread:
                     self._depth.put(**frame.depth_fields)
                     self._truth.put(**truth_fields(frame))
                     self.frames += 1
-                except Exception as exc:  # a bad frame must not kill the host
+                except Exception as exc:  # noqa: BLE001 - a bad frame must not kill the host
                     self._errors.warning("kinect", f"simulated Kinect frame failed: {exc!r}")
             self._stop.wait(clock.advance(time.monotonic()))

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from services.runtime import base_parser, load_profile, run_main
+from services.runtime import ProfileError, base_parser, load_profile, run_main
 from services.tracker.config import TrackerConfig, config_from_dict
 from services.tracker.errors import TrackerConfigError
 
@@ -48,7 +48,7 @@ def _profile_config(args: argparse.Namespace) -> dict:
     """[services.tracker.config] of the profile, or {} for the offline commands."""
     try:
         return load_profile(args).service_config("tracker")
-    except Exception:  # offline commands work without a usable profile
+    except (ProfileError, OSError, ValueError):  # offline commands work without a usable profile
         return {}
 
 

@@ -365,7 +365,7 @@ def _campaign(args: argparse.Namespace, results: dict, todo: list[tuple[str, str
         log_path = args.out / "matrix_logs" / f"{service}-{phase}-{fault}-{seed}.log"
         try:
             rec = run_with_faults([plan], receiver="taking", seed=seed, log_path=log_path)
-        except Exception as exc:  # a harness failure is recorded, the campaign goes on
+        except Exception as exc:  # noqa: BLE001 - a harness failure is recorded, the campaign goes on
             run = {"seed": seed, "violations": [f"harness: {exc}"], "outcome": "error", "missed": False,
                    "detection_s": None, "stop_s": None, "exit_code": None, "exit_line": ""}
         else:

@@ -91,7 +91,7 @@ class _Latest:
             self.rejected += 1
             self._bad_log.warning(self.key, f"dropped undecodable {self.cls.TYPE} on {self.key}: {exc}")
             return
-        except Exception as exc:  # never into Zenoh's thread
+        except Exception as exc:  # noqa: BLE001 - a Zenoh callback: nothing may escape into Zenoh's thread
             self.rejected += 1
             self._bad_log.warning(self.key, f"dropped payload on {self.key}: {exc!r}")
             return
@@ -350,18 +350,18 @@ class BaxterBackend:
         if disable and (self.dry_run or "enable" in self._publishers):
             try:
                 self._send("enable", Bool(False))
-            except Exception as exc:
+            except Exception as exc:  # noqa: BLE001 - shutdown path: close the rest whatever happened
                 log.warning("could not send disable: %s", exc)
         for entity in [*self._subscribers, *self._publishers.values()]:
             try:
                 entity.undeclare()
-            except Exception:
+            except Exception:  # noqa: BLE001 - best-effort close: the session may already be closing
                 pass
         self._subscribers, self._publishers = [], {}
         if self._own_session and self._session is not None:
             try:
                 self._session.close()
-            except Exception as exc:
+            except Exception as exc:  # noqa: BLE001 - best-effort close, reported
                 log.warning("closing the Baxter session failed: %s", exc)
         self._session = None  # type: ignore[assignment]
         log.info("baxter backend closed", extra=kv(**{f"sent_{k}": v for k, v in self.sent.items()},
