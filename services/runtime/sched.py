@@ -153,14 +153,14 @@ class StarvationJudge:
         first = self._first.get(pid)
         if first is not None and quiet_since_s is not None and first.at_s < quiet_since_s:
             self.forget(pid)
-        if quiet_since_s is not None:
-            self._since[pid] = quiet_since_s
         base = self._base.get(pid)
-        if base is not None and now_s - base.at_s < WINDOW_S:
-            return
         if base is not None and now_s - base.at_s > STALE_BASE_S:  # from an earlier quiet spell
             self.forget(pid)
             base = None
+        if quiet_since_s is not None:
+            self._since[pid] = quiet_since_s
+        if base is not None and now_s - base.at_s < WINDOW_S:
+            return
         sample = self._read(pid, now_s)
         if sample is None:
             self.forget(pid)

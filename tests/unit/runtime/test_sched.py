@@ -376,3 +376,18 @@ def test_a_stopped_process_is_known_stopped_and_a_running_or_gone_one_is_not():
         proc.kill()
         proc.wait(5.0)
         adapter.exits.close()
+
+
+def test_a_watcher_starved_mid_silence_still_judges_it_from_its_start():
+    """The watcher's own stall makes its last reading stale: the spell starts over, but it
+    still began when the service was last heard from."""
+    fake, machine = FakeReader(), FakeMachine()
+    judge = StarvationJudge(fake, MachineHistory(machine))
+    fake.samples[6] = SchedSample(0.0, 0.0, "S")
+    machine.reading = MachineReading(0.0, 10.0, 0.0)
+    judge.tick(0.99)
+    judge.note(6, 1.0, quiet_since_s=0.95)
+    machine.reading = MachineReading(0.0, 10.3, 0.0)  # the watcher itself stalled 0.5 s
+    judge.note(6, 1.5, quiet_since_s=0.95)
+    why = judge.excuse(6, 1.5)
+    assert why is not None and "short of CPU" in why
