@@ -154,23 +154,6 @@ class ObjectMotion(Message, frozen=True, kw_only=True):
 
 # --------------------------------------------------------------------------- perception
 
-SKELETON_JOINTS: tuple[str, ...] = (
-    "head",
-    "neck",
-    "torso",
-    "left_shoulder",
-    "left_elbow",
-    "left_hand",
-    "right_shoulder",
-    "right_elbow",
-    "right_hand",
-    "left_hip",
-    "left_knee",
-    "left_foot",
-    "right_hip",
-    "right_knee",
-    "right_foot",
-)
 SkeletonJointName = Literal[
     "head",
     "neck",
@@ -188,6 +171,23 @@ SkeletonJointName = Literal[
     "right_knee",
     "right_foot",
 ]
+SKELETON_JOINTS: tuple[SkeletonJointName, ...] = (
+    "head",
+    "neck",
+    "torso",
+    "left_shoulder",
+    "left_elbow",
+    "left_hand",
+    "right_shoulder",
+    "right_elbow",
+    "right_hand",
+    "left_hip",
+    "left_knee",
+    "left_foot",
+    "right_hip",
+    "right_knee",
+    "right_foot",
+)
 
 
 class SkeletonJoint(msgspec.Struct, frozen=True, kw_only=True):

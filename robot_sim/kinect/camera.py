@@ -93,7 +93,8 @@ class KinectCamera:
         q = Rotation.from_matrix(self.rotation).as_quat()
         if q[3] < 0:
             q = -q
-        return tuple(float(c) for c in q)
+        x, y, z, w = (float(c) for c in q)
+        return x, y, z, w
 
     def rays_optical(self) -> np.ndarray:
         """Per-pixel ray directions (H, W, 3) in the optical frame, scaled so z = 1."""

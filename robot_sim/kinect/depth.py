@@ -115,7 +115,7 @@ class DepthRenderer:
     def render(
         self,
         capsules: list[Capsule],
-        boxes: list[Box] = (),
+        boxes: Sequence[Box] = (),
         floor_z_m: float | None = None,
         background: np.ndarray | None = None,
     ) -> np.ndarray:

@@ -242,7 +242,8 @@ class KinectSim:
         skeleton_fields: dict[str, Any] = {"tracked": tracked, "user_id": 1 if tracked else 0, "joints": []}
         if tracked:
             skeleton_fields["joints"] = [
-                SkeletonJoint(name=n, position_m=tuple(float(c) for c in est[i]), confidence=float(conf[i]))
+                SkeletonJoint(name=n, position_m=(float(est[i][0]), float(est[i][1]), float(est[i][2])),
+                              confidence=float(conf[i]))
                 for i, n in enumerate(SKELETON_JOINTS)
             ]
         depth_fields = {**self._depth_constant_fields, "depth_mm": payload}

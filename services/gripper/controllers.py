@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Callable
+from typing import Callable, Protocol
 
 import numpy as np
 
@@ -117,6 +117,13 @@ def _estimate_mode(
     moving = (accel > slip_accel_threshold_m_s2) | (valid & (speed > slip_speed_threshold_m_s))
     mode = np.where(moving, int(Mode.SLIP), int(Mode.GRASP))
     return np.where(grip_force_n <= 0.0, int(Mode.RELEASE), mode).astype(np.int8)
+
+
+class ModeReportingController(GripController, Protocol):
+    """A `GripController` that also keeps its mode estimate per episode (`Mode` codes, int8),
+    as every controller registered here does: the gripper service publishes it."""
+
+    mode: np.ndarray
 
 
 class _BaseController:
@@ -373,7 +380,7 @@ class _LatchedReleaseBaseline(_BaseController):
         self._reset_common(n_episodes)
         self.released = np.zeros(self.n_episodes, dtype=bool)
         self.grip_force_n = np.full(self.n_episodes, self.hold_force_n)
-        self._rest_force = None
+        self._rest_force: np.ndarray | None = None
 
     def _release_condition(self, sample: SensorSample) -> np.ndarray:
         raise GripperError(f"{type(self).__name__} defines no release condition")
@@ -684,15 +691,15 @@ SG_PRESETS: dict[str, SlipGuardParams] = {
 
 @dataclass(frozen=True)
 class _Entry:
-    factory: Callable[..., GripController]
+    factory: Callable[..., ModeReportingController]
     summary: str
     defaults: dict = field(default_factory=dict)
 
 
-def _preset_factory(preset: str, presets: dict, controller: Callable[..., GripController],
-                    params_doc: str) -> Callable[..., GripController]:
+def _preset_factory(preset: str, presets: dict, controller: Callable[..., ModeReportingController],
+                    params_doc: str) -> Callable[..., ModeReportingController]:
     """Builder of a named parameter preset (FS1, SG, ...), with keyword overrides."""
-    def build(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
+    def build(period_s: float = DEFAULT_PERIOD_S, **overrides) -> ModeReportingController:
         try:
             params = replace(presets[preset], **overrides)
         except TypeError as exc:
@@ -702,11 +709,11 @@ def _preset_factory(preset: str, presets: dict, controller: Callable[..., GripCo
     return build
 
 
-def _fs_factory(preset: str) -> Callable[..., GripController]:
+def _fs_factory(preset: str) -> Callable[..., ModeReportingController]:
     return _preset_factory(preset, FS_PRESETS, FailSafeController, "FailSafeParams")
 
 
-def _hi_factory(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
+def _hi_factory(period_s: float = DEFAULT_PERIOD_S, **overrides) -> ModeReportingController:
     try:
         params = HumanInspiredParams(**overrides)
     except TypeError as exc:
@@ -714,12 +721,12 @@ def _hi_factory(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripControll
     return HumanInspiredController(params, period_s=period_s)
 
 
-def _sg_factory(preset: str) -> Callable[..., GripController]:
+def _sg_factory(preset: str) -> Callable[..., ModeReportingController]:
     return _preset_factory(preset, SG_PRESETS, SlipGuardController, "SlipGuardParams")
 
 
-def _kw_factory(cls) -> Callable[..., GripController]:
-    def build(period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
+def _kw_factory(cls) -> Callable[..., ModeReportingController]:
+    def build(period_s: float = DEFAULT_PERIOD_S, **overrides) -> ModeReportingController:
         try:
             return cls(period_s=period_s, **overrides)
         except TypeError as exc:
@@ -753,7 +760,7 @@ def controller_summaries() -> dict[str, str]:
     return {name: entry.summary for name, entry in _REGISTRY.items()}
 
 
-def make_controller(name: str, period_s: float = DEFAULT_PERIOD_S, **overrides) -> GripController:
+def make_controller(name: str, period_s: float = DEFAULT_PERIOD_S, **overrides) -> ModeReportingController:
     """Build a registered controller by name, with optional parameter overrides.
 
     Raises GripperError for an unknown name or parameter.

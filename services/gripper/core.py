@@ -29,9 +29,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_sim.contact.interfaces import GripController, Mode, SensorSample
+from robot_sim.contact.interfaces import Mode, SensorSample
 from services.gripper.config import GripperConfig
-from services.gripper.controllers import make_controller
+from services.gripper.controllers import ModeReportingController, make_controller
 from services.gripper.errors import GripperError
 from services.gripper.spring import GripSpring
 from services.runtime.repeat import HOLD_REPEAT_S
@@ -104,11 +104,11 @@ class GripperCore:
 
     Args:
         config: validated service config.
-        controller: a `GripController` to use instead of building `config.controller`
+        controller: a `ModeReportingController` to use instead of building `config.controller`
             (tests); its `period_s` should be `config.period_s`.
     """
 
-    def __init__(self, config: GripperConfig, controller: GripController | None = None) -> None:
+    def __init__(self, config: GripperConfig, controller: ModeReportingController | None = None) -> None:
         self.config = config
         self.controller = controller or make_controller(
             config.controller, period_s=config.period_s, **dict(config.controller_params)
@@ -213,7 +213,8 @@ class GripperCore:
     def _stale_reasons(self, now_s: float) -> list[str]:
         reasons = []
         cfg = self.config
-        checks = [("wrist_wrench", self._wrench, cfg.wrench_timeout_s)]
+        checks: list[tuple[str, WrenchReading | MotionReading | None, float]] = [
+            ("wrist_wrench", self._wrench, cfg.wrench_timeout_s)]
         if cfg.require_motion:
             checks.append(("object_motion", self._motion, cfg.motion_timeout_s))
         for name, reading, timeout in checks:
@@ -230,8 +231,9 @@ class GripperCore:
         w = self._wrench
         assert w is not None
         m = self._motion
-        motion_ok = m is not None and now_s - m.rx_s <= self.config.motion_timeout_s
-        valid = bool(m.surface_valid) if motion_ok else False
+        if m is not None and now_s - m.rx_s > self.config.motion_timeout_s:
+            m = None  # stale: as if none had come
+        valid = m is not None and bool(m.surface_valid)
         if self._episode_start_s is None:
             self._episode_start_s = now_s
         one = lambda v: np.array([float(v)])  # noqa: E731
@@ -239,9 +241,9 @@ class GripperCore:
             time_s=now_s - self._episode_start_s,
             force_x_n=one(w.force_x_n),
             force_y_n=one(w.force_y_n),
-            accel_y_m_s2=one(m.accel_y_m_s2 if motion_ok and valid else 0.0),
-            slip_velocity_x_m_s=one(m.slip_velocity_x_m_s if motion_ok and valid else 0.0),
-            slip_velocity_y_m_s=one(m.slip_velocity_y_m_s if motion_ok and valid else 0.0),
+            accel_y_m_s2=one(m.accel_y_m_s2 if m is not None and valid else 0.0),
+            slip_velocity_x_m_s=one(m.slip_velocity_x_m_s if m is not None and valid else 0.0),
+            slip_velocity_y_m_s=one(m.slip_velocity_y_m_s if m is not None and valid else 0.0),
             optical_valid=np.array([valid]),
             grip_force_n=one(self.last_command_n),
             force_fresh=self._new_wrench,

@@ -499,16 +499,16 @@ class MotionController:
         if self._q_cmd is None:
             self._mode = _Mode.IDLE
             return
-        fresh = (
+        measured_q, measured_dq = self._measured_q, self._measured_dq
+        if (
             self.config.servo_lag_s > 0.0
-            and self._measured_q is not None
-            and self._measured_dq is not None
+            and measured_q is not None
+            and measured_dq is not None
             and now_s - self._measured_at_s <= _FRESH_MEASUREMENT_S
-        )
-        if fresh:
+        ):
             age = max(0.0, now_s - self._measured_at_s)
-            q0 = self.ik.clip_to_limits(self._measured_q + self._measured_dq * age)
-            dq0, ddq0 = self._measured_dq.copy(), np.zeros(7)
+            q0 = self.ik.clip_to_limits(measured_q + measured_dq * age)
+            dq0, ddq0 = measured_dq.copy(), np.zeros(7)
         else:
             q0, dq0, ddq0 = self._q_cmd, self._dq_cmd, self._ddq_cmd
         if not np.any(np.abs(dq0) > 1e-9) and not np.any(np.abs(self._dq_cmd) > 1e-9):
@@ -581,6 +581,7 @@ class MotionController:
             self._end_s = max(self._end_s, now_s + max(0.0, self._duration_s - self._path_time_s))
             self._advance_cartesian(now_s, self._path_time_s, dt)
         elif self._mode is _Mode.JOINT:
+            assert self._joint_traj is not None  # set with the JOINT mode
             q, dq, ddq = self._joint_traj.state_at(elapsed)
             self._command(q, dt, dq, ddq)
             if elapsed >= self._duration_s:
@@ -588,6 +589,7 @@ class MotionController:
             else:
                 self._set_status("moving", progress=elapsed / self._duration_s)
         elif self._mode is _Mode.STOPPING:
+            assert self._joint_traj is not None  # set with the STOPPING mode
             q, dq, ddq = self._joint_traj.state_at(elapsed)
             self._command(q, dt, dq, ddq)
             if elapsed >= self._joint_traj.duration_s:
@@ -606,6 +608,7 @@ class MotionController:
     def _advance_cartesian(self, now_s: float, elapsed: float, dt: float) -> None:
         cfg = self.config
         reach = self._reach
+        assert reach is not None  # set with the CARTESIAN mode
         p, rotation, _ = reach.pose_at(elapsed)
         q_from = self._reach_q0 if elapsed <= 0.0 or self._q_cmd is None else self._q_cmd
         try:

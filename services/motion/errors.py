@@ -22,6 +22,9 @@ class IkInfeasibleError(IkError):
 class IkNoProgressError(IkError):
     """IK stopped improving before reaching the tolerance (target out of reach or at a limit)."""
 
+    #: Iterations spent before giving up (set where it is raised).
+    iterations: int
+
 
 class TrajectoryError(MotionError):
     """A trajectory could not be computed (Ruckig error or invalid path parameters)."""

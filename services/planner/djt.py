@@ -450,9 +450,9 @@ def _constraint_slacks(
         d = float(np.hypot(p[0] - actor.shoulder_x_m, p[1] - actor.shoulder_z_m))
         slacks[f"{role}_reach"] = (d_max - d, 1e-3)
         slacks[f"{role}_elbow_flexion"] = (d - d_min, 1e-3)
-        q1, _, _ = inverse_kinematics(actor, p[0], p[1])
+        q1_ik, _, _ = inverse_kinematics(actor, p[0], p[1])
         q1_lo, q1_hi = settings.shoulder_angle_range_rad
-        q1 = float(q1) if np.isfinite(q1) else q1_lo - 1.0
+        q1 = float(q1_ik) if np.isfinite(q1_ik) else q1_lo - 1.0
         slacks[f"{role}_shoulder_range"] = (min(q1 - q1_lo, q1_hi - q1), np.deg2rad(0.5))
     return slacks
 
@@ -489,7 +489,7 @@ class _PointModel:
                  a.forearm_to_grasp_m, proximal, distal, d_min, d_max)
             )
 
-    def cost(self, p: np.ndarray) -> float:
+    def cost(self, p: np.ndarray | tuple[float, float]) -> float:
         """E_DJT at p (+inf outside either annulus)."""
         x, z = float(p[0]), float(p[1])
         total = 0.0
@@ -571,7 +571,7 @@ def _refine(
     # Outside an annulus the cost is continued by a large constant for finite differences.
     outside = 10.0 * start_cost / scale
 
-    def objective(p: np.ndarray) -> float:
+    def objective(p: np.ndarray | tuple[float, float]) -> float:
         c = model.cost(p)
         return c / scale if math.isfinite(c) else outside
 

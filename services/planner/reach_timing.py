@@ -86,8 +86,9 @@ def reach_timing(
         raise PlannerError(f"peak speed cap {max_peak_speed_m_s:g} m/s must be positive")
     v_norm = normalised_peak_velocity_1_s
     peak = v_norm * distance_m
-    capped = max_peak_speed_m_s is not None and peak > max_peak_speed_m_s
-    if capped:
+    capped = False
+    if max_peak_speed_m_s is not None and peak > max_peak_speed_m_s:
+        capped = True
         peak = float(max_peak_speed_m_s)
         v_norm = peak / distance_m
     return ReachTiming(

@@ -31,7 +31,7 @@ class _Parser(argparse.ArgumentParser):
 
     _args: list[str] = []
 
-    def parse_known_args(self, args=None, namespace=None):  # type: ignore[override]
+    def parse_known_args(self, args=None, namespace=None):
         self._args = list(sys.argv[1:] if args is None else args)
         return super().parse_known_args(args, namespace)
 

@@ -88,6 +88,8 @@ class TypedSubscription(Generic[M]):
         self._last_seq: dict[str, int] = {}
         self._bad_log = RateLimitedLog(log, 1.0)
         self._pump_lock = threading.Lock()
+        # A callback subscriber (Subscriber[None]) or a ring channel's (try_recv): Any covers both.
+        self._subscriber: zenoh.Subscriber[Any]
         if wake:
             self._subscriber = node.session.declare_subscriber(self.key, self._on_sample)
         else:

@@ -27,7 +27,10 @@ def make_kinect_sim(config: KinectConfig) -> Any:
     """The seeded `robot_sim.kinect.KinectSim` for `config` (loads Baxter's model: ~1 s)."""
     from robot_sim.kinect import KinectScenario, KinectSim
 
-    target = tuple(config.hand_target_base_m) if config.hand_target_base_m else None
+    target: tuple[float, float, float] | None = None
+    if config.hand_target_base_m:  # three values (checked when the config is loaded)
+        x, y, z = config.hand_target_base_m
+        target = (x, y, z)
     scenario = KinectScenario(height_m=config.height_m, posture=config.posture,
                               hand_target_base_m=target, reach_start_s=config.reach_start_s,
                               reach_duration_s=config.reach_duration_s)

@@ -120,7 +120,7 @@ class BodyDimensionEstimator:
             thigh -= 2.0 * float(np.var(rows[:, 1])) / max(thigh, 1e-3)
             shank -= 2.0 * float(np.var(rows[:, 2])) / max(shank, 1e-3)
         legs = thigh + shank
-        posture = "standing" if vertical > 0.5 else "sitting"
+        posture: Literal["standing", "sitting"] = "standing" if vertical > 0.5 else "sitting"
         if posture == "standing":
             height = head_h / anthropometry.HEAD_CENTRE_HEIGHT_RATIO
         else:

@@ -56,7 +56,7 @@ class SkeletonFrame:
 
 def skeleton_frame_from_message(msg: Skeleton, t_s: float) -> SkeletonFrame:
     """Convert a decoded `Skeleton` message received at `t_s`."""
-    joints = {j.name: np.asarray(j.position_m, float) for j in msg.joints}
+    joints: dict[str, np.ndarray] = {j.name: np.asarray(j.position_m, float) for j in msg.joints}
     return SkeletonFrame(tracked=bool(msg.tracked) and bool(joints), joints_m=joints, t_s=t_s)
 
 
@@ -267,6 +267,7 @@ class TrackerPipeline:
 
     def _excluded_points(self, pts: np.ndarray) -> np.ndarray:
         """Mask (N,) of points (N, 3) on the robot (its capsules) or the person's forearms."""
+        assert self._depth is not None  # called by detect_object, on the latest depth frame
         caps: list[Capsule] = []
         robot_caps, _ = self._robot(self._depth.t_s)
         if robot_caps is not None:

@@ -100,7 +100,7 @@ def fit_table_plane(frame: DepthFrame, floor_z_m: float, min_pixels: int = 500) 
 
 def table_region(inliers: np.ndarray) -> np.ndarray:
     """Filled table region (H, W) bool: the convex hull of the largest inlier contour."""
-    mask = inliers.astype(np.uint8) * 255
+    mask: np.ndarray = inliers.astype(np.uint8) * 255
     mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
     contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
     region = np.zeros_like(mask)
