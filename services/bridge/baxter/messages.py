@@ -1,8 +1,9 @@
-"""The ROS 1 message types the Baxter backend speaks, with their ``.msg`` definitions.
+"""The ROS 1 message types the Baxter backend speaks.
 
-Standard types (std_msgs, sensor_msgs, geometry_msgs) and Baxter's (baxter_core_msgs, from
-Rethink's ``baxter_common``) are written as in their packages; the MD5 sums computed from them
-by `ros1.md5sum` equal the published ones (tests check each against its well-known value).
+The standard types (std_msgs, sensor_msgs, geometry_msgs) are the ROS 1 Noetic definitions
+that rosbags' type store ships; Baxter's (baxter_core_msgs, from Rethink's ``baxter_common``)
+are written here as in their package and registered into the store. The MD5 sums of all of
+them equal the published ones (tests check each against its well-known value).
 ``handover_msgs/OpticalMotion`` is this project's own type for the optical slip sensor (no
 standard message carries mouse-sensor counts); its definition is here and in docs/baxter.md,
 and the robot-side sensor node must publish exactly it.
@@ -16,24 +17,8 @@ from dataclasses import dataclass
 
 from services.bridge.baxter.ros1 import Ros1Message, Time, message_class
 
-HEADER_MSG = """\
-# Standard metadata for higher-level stamped data types.
-# This is generally used to communicate timestamped data
-# in a particular coordinate frame.
-#
-# sequence ID: consecutively increasing ID
-uint32 seq
-#Two-integer timestamp that is expressed as:
-# * stamp.sec: seconds (stamp_secs) since epoch (in Python the variable is called 'secs')
-# * stamp.nsec: nanoseconds since stamp_secs (in Python the variable is called 'nsecs')
-# time-handling sugar is provided by the client library
-time stamp
-#Frame this data is associated with
-string frame_id
-"""
 
-
-@message_class("std_msgs/Header", HEADER_MSG)
+@message_class("std_msgs/Header")
 @dataclass(frozen=True)
 class Header(Ros1Message):
     seq: int = 0
@@ -41,49 +26,19 @@ class Header(Ros1Message):
     frame_id: str = ""
 
 
-@message_class("std_msgs/Bool", "bool data\n")
+@message_class("std_msgs/Bool")
 @dataclass(frozen=True)
 class Bool(Ros1Message):
     data: bool = False
 
 
-@message_class("std_msgs/Float64", "float64 data\n")
+@message_class("std_msgs/Float64")
 @dataclass(frozen=True)
 class Float64(Ros1Message):
     data: float = 0.0
 
 
-JOINT_STATE_MSG = """\
-# This is a message that holds data to describe the state of a set of torque controlled joints.
-#
-# The state of each joint (revolute or prismatic) is defined by:
-#  * the position of the joint (rad or m),
-#  * the velocity of the joint (rad/s or m/s) and
-#  * the effort that is applied in the joint (Nm or N).
-#
-# Each joint is uniquely identified by its name
-# The header specifies the time at which the joint states were recorded. All the joint states
-# in one message have to be recorded at the same time.
-#
-# This message consists of a multiple arrays, one for each part of the joint state.
-# The goal is to make each of the fields optional. When e.g. your joints have no
-# effort associated with them, you can leave the effort array empty.
-#
-# All arrays in this message should have the same size, or be empty.
-# This is the only way to uniquely associate the joint name with the correct
-# states.
-
-
-Header header
-
-string[] name
-float64[] position
-float64[] velocity
-float64[] effort
-"""
-
-
-@message_class("sensor_msgs/JointState", JOINT_STATE_MSG)
+@message_class("sensor_msgs/JointState")
 @dataclass(frozen=True)
 class JointState(Ros1Message):
     header: Header = Header()
@@ -93,21 +48,7 @@ class JointState(Ros1Message):
     effort: tuple[float, ...] = ()
 
 
-VECTOR3_MSG = """\
-# This represents a vector in free space.
-# It is only meant to represent a direction. Therefore, it does not
-# make sense to apply a translation to it (e.g., when applying a
-# generic rigid transformation to a Vector3, tf2 will only apply the
-# rotation). If you want your data to be translatable too, use the
-# geometry_msgs/Point message instead.
-
-float64 x
-float64 y
-float64 z
-"""
-
-
-@message_class("geometry_msgs/Vector3", VECTOR3_MSG)
+@message_class("geometry_msgs/Vector3")
 @dataclass(frozen=True)
 class Vector3(Ros1Message):
     x: float = 0.0
@@ -115,29 +56,14 @@ class Vector3(Ros1Message):
     z: float = 0.0
 
 
-WRENCH_MSG = """\
-# This represents force in free space, separated into
-# its linear and angular parts.
-Vector3  force
-Vector3  torque
-"""
-
-
-@message_class("geometry_msgs/Wrench", WRENCH_MSG)
+@message_class("geometry_msgs/Wrench")
 @dataclass(frozen=True)
 class Wrench(Ros1Message):
     force: Vector3 = Vector3()
     torque: Vector3 = Vector3()
 
 
-WRENCH_STAMPED_MSG = """\
-# A wrench with reference coordinate frame and timestamp
-Header header
-Wrench wrench
-"""
-
-
-@message_class("geometry_msgs/WrenchStamped", WRENCH_STAMPED_MSG)
+@message_class("geometry_msgs/WrenchStamped")
 @dataclass(frozen=True)
 class WrenchStamped(Ros1Message):
     header: Header = Header()
