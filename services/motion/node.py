@@ -66,7 +66,7 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
                 if now > next_tick:  # overran: skip missed deadlines, no burst
                     overruns += 1
                     next_tick = now + period
-                    overrun_log.warning("overrun", "motion tick overran its period", overruns=overruns)
+                    overrun_log.info("overrun", "motion tick overran its period", overruns=overruns)
             ticks += 1
             states.drain()
             latest = states.latest()

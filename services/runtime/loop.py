@@ -43,8 +43,8 @@ def skip_missed(stats: Any, overrun_log: RateLimitedLog, name: str, period_s: fl
     stats.overruns += 1
     stats.skipped += missed - 1
     next_deadline_s += (missed - 1) * period_s
-    overrun_log.warning("overrun", f"{name} tick overran its {period_s * 1e3:.1f} ms period",
-                        overruns=stats.overruns, late_ms=round((now_s - next_deadline_s + period_s) * 1e3, 2))
+    overrun_log.info("overrun", f"{name} tick overran its {period_s * 1e3:.1f} ms period",
+                     overruns=stats.overruns, late_ms=round((now_s - next_deadline_s + period_s) * 1e3, 2))
     return next_deadline_s
 
 

@@ -29,11 +29,10 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-#: A heartbeat thread that wakes this much after it meant to is reported, s (two beats).
+#: A heartbeat thread that wakes this much after it meant to is reported, s (two beats), at
+#: INFO: it explains a silence; whether the silence matters is the supervisor's to say (it
+#: calls a critical service silent when its last heartbeat is 0.25 s old, and warns then).
 LATE_WAKE_REPORT_S = 0.1
-#: ... and reported as a warning from this lateness on, s (the supervisor calls a critical
-#: service silent when its last heartbeat is 0.25 s old).
-LATE_WAKE_WARNING_S = 0.2
 
 _SCHEDSTAT = Path("/proc/thread-self/schedstat")
 #: The process's main thread (the thread-group leader): it runs the service loop and is the
