@@ -14,22 +14,27 @@ from services.runtime.errors import ProfileError
 from services.runtime.profile import free_tcp_port
 
 
-def _prefix_own_logs() -> None:
-    """Route the launcher's own log records through `[launcher]`-prefixed lines."""
+def _route_own_logs(verbose: bool) -> None:
+    """The launcher's own log records: into ``launcher.log``, and as `[launcher]` lines on the
+    console when `verbose` or at WARNING and above (never blocking)."""
     import logging
 
+    from services.launcher.logfiles import own_line
     from services.launcher.processes import emit
 
     class _Prefixed(logging.Handler):
         def emit(self, record: logging.LogRecord) -> None:
-            emit(f"[launcher] {record.getMessage()}\n")
+            own_line(record.getMessage(), record.levelname)
+            if verbose or record.levelno >= logging.WARNING:
+                emit(f"[launcher] {record.getMessage()}\n")
 
     logging.getLogger().handlers[:] = [_Prefixed()]
 
 
 def _check_recording_dir(directory: Path) -> None:
     """Refuse a recording folder that cannot be created or written before any service starts
-    (the recorder would otherwise fail, be restarted and fail again mid-run)."""
+    (the recorder would otherwise fail, be restarted and fail again mid-run; the logs go there
+    too)."""
     try:
         directory.mkdir(parents=True, exist_ok=True)
         with tempfile.TemporaryFile(dir=directory):
@@ -63,6 +68,7 @@ def _run(args: argparse.Namespace) -> int:
         episodes=args.episodes,
         seed=args.seed,
         episode_timeout_s=float(cfg.get("episode_timeout_s", 90.0)),
+        verbose=args.verbose,
     )
     if options.episodes is not None and not 0 <= options.episodes <= 100000:
         raise LauncherUsageError("--episodes must be within 0–100000 (0: until Ctrl-C)")
@@ -70,14 +76,13 @@ def _run(args: argparse.Namespace) -> int:
         raise LauncherUsageError("--seed must be within 0–4294967295")
     if not 0 < options.alive_timeout_s <= 600:
         raise LauncherUsageError("--alive-timeout-s must be within (0, 600] s")
-    if any(spec.name == "recorder" for spec in profile.services):
-        _check_recording_dir(options.recording_dir)
+    _check_recording_dir(options.recording_dir)
     queue_lines = cfg.get("output_queue_lines", DEFAULT_OUTPUT_QUEUE_LINES)
     if isinstance(queue_lines, bool) or not isinstance(queue_lines, int) or not 1 <= queue_lines <= 1_000_000:
         raise ProfileError(f"{profile.path}: launcher.output_queue_lines {queue_lines!r} must be an "
                            "integer within 1–1000000")
     stdout_outlet(queue_lines)  # before the first line, so the bound holds from the start
-    _prefix_own_logs()
+    _route_own_logs(options.verbose)
     return Launcher(profile, options).run()
 
 
@@ -85,8 +90,10 @@ def main(argv: list[str] | None = None) -> int:
     parser = base_parser(
         "handover-up",
         "Start the handover stack from a deploy profile: host the Zenoh router on loopback, start "
-        "every service with its output prefixed [name], wait until all are alive, run a job, and "
-        "shut everything down in order on Ctrl-C. Leaves one Rerun recording per run.",
+        "every service, wait until all are alive, run a job, and shut everything down in order on "
+        "Ctrl-C. Leaves one Rerun recording per run and, beside it, a folder with every service's "
+        "log. The console shows the launcher's progress, the services' warnings and errors, and "
+        "the summary.",
     )
     parser.add_argument("--job", choices=JOBS, default=None,
                         help="handover: run the supervisor's handover episodes and print a summary "
@@ -103,7 +110,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--port", default=None,
                         help="bus port on 127.0.0.1, or 'auto' for a free one (overrides --endpoint)")
     parser.add_argument("--run-id", default=None, help="name of this run (default: the start time)")
-    parser.add_argument("--recording-dir", default=None, help="where the recording goes (default: recordings/)")
+    parser.add_argument("--recording-dir", default=None,
+                        help="where the recording and the folder of logs go (default: recordings/)")
+    parser.add_argument("-v", "--verbose", action="store_true",
+                        help="print every line of every service on the console as well, prefixed "
+                             "[name] (they are always in the log folder)")
     parser.add_argument("--alive-timeout-s", type=float, default=None,
                         help="how long every service may take to come up (default: the profile's, 30 s)")
     parser.set_defaults(service_name="handover-up")

@@ -6,9 +6,11 @@ No processes are started here; `services/launcher/processes.py` does that.
 from __future__ import annotations
 
 import copy
+import re
 import sys
+import time
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +30,49 @@ def shutdown_order(specs: Sequence[ServiceSpec]) -> list[ServiceSpec]:
     """Reverse start order, except the recorder goes last (it records the shutdown)."""
     ordered = list(reversed(start_order(specs)))
     return sorted(ordered, key=lambda s: 1 if s.name == RECORDER else 0)
+
+
+@dataclass
+class LaunchOptions:
+    """What `handover-up` was asked to do.
+
+    Attributes:
+        job: ``handover``, ``demo``, ``check`` or ``none``.
+        run_id: name of this run (recording file name).
+        recording_dir: where the recorder writes.
+        alive_timeout_s: every service must be alive within this time, s.
+        term_timeout_s: SIGINT → SIGTERM and SIGTERM → SIGKILL delays, s.
+        verbose: every service's output on the console too (else its warnings and errors).
+    """
+
+    job: str = "handover"
+    run_id: str = field(default_factory=lambda: time.strftime("%Y%m%d-%H%M%S"))
+    recording_dir: Path = Path("recordings")
+    alive_timeout_s: float = 30.0
+    term_timeout_s: float = 5.0
+    receiver: str | None = None
+    posture: str | None = None
+    episodes: int | None = None
+    seed: int | None = None
+    episode_timeout_s: float = 90.0
+    verbose: bool = False
+
+    def service_args(self, name: str, scene_service: str = "bridge") -> list[str]:
+        """Command-line overrides for service `name` (receiver, posture, seed → the service
+        that simulates the scene: the bridge, or the fake Baxter when the profile has one;
+        posture and seed also → the simulated Kinect service ``kinect``, which renders the
+        same receiver; episodes → the supervisor)."""
+        args: list[str] = []
+        if name == scene_service and self.receiver is not None:
+            args += ["--receiver", self.receiver]
+        if name in (scene_service, "kinect"):
+            if self.posture is not None:
+                args += ["--posture", self.posture]
+            if self.seed is not None:
+                args += ["--seed", str(self.seed)]
+        if name == "supervisor" and self.episodes is not None:
+            args += ["--episodes", str(self.episodes)]
+        return args
 
 
 @dataclass(frozen=True)
@@ -83,6 +128,36 @@ def recording_path(directory: Path, run_id: str, attempt: int = 0) -> Path:
     """Where the recorder writes this run (a restarted recorder gets a new part file)."""
     suffix = "" if attempt == 0 else f"-part{attempt + 1}"
     return directory / f"handover-{run_id}{suffix}.rrd"
+
+
+def logs_dir(directory: Path, run_id: str) -> Path:
+    """Where this run's log files go, beside its recording: ``<service>.log`` for every service
+    (a restarted one goes on in the same file), ``launcher.log``, ``router.log``."""
+    return directory / f"handover-{run_id}-logs"
+
+
+#: A service's log record (`services.runtime.logs`): ``HH:MM:SS.mmm LEVEL message``, or a JSON
+#: line with a ``"level"`` key.
+_TEXT_RECORD = re.compile(r"^\d\d:\d\d:\d\d\.\d{3} (DEBUG|INFO|WARNING|ERROR|CRITICAL) ")
+_JSON_RECORD = re.compile(r'^\{.*?"level": "(debug|info|warning|error|critical)"')
+#: Levels a quiet console shows.
+QUIET_LEVELS = ("WARNING", "ERROR", "CRITICAL")
+
+
+def line_level(line: str) -> str | None:
+    """The level of a service's output line (``INFO``, ``WARNING``, …), or None for a line that
+    is not a log record (a crash's traceback, a one-line error at exit, a print)."""
+    match = _TEXT_RECORD.match(line) or _JSON_RECORD.match(line)
+    return match[1].upper() if match else None
+
+
+def shown_when_quiet(line: str) -> bool:
+    """Whether a service's output line reaches the console without ``--verbose``: its warnings
+    and errors, and any non-blank line that is not a log record (a traceback, the one-line
+    error of a service that exits: what a user must see when a service fails). INFO and DEBUG
+    records go to the service's log file only."""
+    level = line_level(line)
+    return level in QUIET_LEVELS if level is not None else bool(line.strip())
 
 
 def prefix_line(name: str, line: str, width: int) -> str:

@@ -2,7 +2,9 @@
 
 1. Start the Zenoh router as its own process on the profile's loopback endpoint
    (`services.launcher.router`), so that no Python work of the launcher sits on the bus's path.
-2. Start the enabled services (recorder first) as child processes, output prefixed ``[name]``.
+2. Start the enabled services (recorder first) as child processes, each one's output into its
+   log file beside the recording (`services.launcher.logfiles`); the console shows their
+   warnings and errors, prefixed ``[name]`` (every line with ``--verbose``).
 3. Wait for every liveliness token (time-out names the services that did not come up).
 4. Run the job (``handover``: follow the supervisor's handover episodes and report them;
    ``demo``: joint-space demo; ``check``: stop once all are alive; ``none``: run until
@@ -10,9 +12,9 @@
 5. Shut down in order: SIGINT, SIGTERM after `term_timeout_s`, SIGKILL after as long again.
 
 Output (the children's, prefixed, and the launcher's own) never blocks the launcher: it waits
-in a bounded queue for stdout (``[launcher] output_queue_lines`` of the profile, default 8192);
-when stdout is blocked the oldest lines are dropped and their count is printed once it takes
-output again (`services.launcher.processes`).
+in a bounded queue for stdout (``[launcher] output_queue_lines`` of the profile, default 8192)
+and in one for each log file; when one is blocked its oldest lines are dropped and their count
+is written once it takes output again (`services.launcher.processes`).
 
 Exit codes: 0 job succeeded; 1 a service failed or the job failed; 2 bad input (profile,
 arguments, port in use); 130 interrupted by Ctrl-C/SIGTERM.
@@ -26,20 +28,23 @@ import re
 import signal
 import threading
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from pathlib import Path
 
 from services.launcher.core import (
     RECORDER,
+    LaunchOptions,
     decide_restart,
     describe_exit,
     format_startup_times,
+    logs_dir,
     recording_path,
     router_zenoh_overrides,
     service_command,
     shutdown_order,
     start_order,
 )
+from services.launcher.logfiles import LogFiles, own_line
 from services.launcher.processes import Child, RouterProcess, emit, stdout_outlet
 from services.runtime import LivelinessWatcher, Profile, ServiceNode, open_session
 from services.runtime.errors import BusError, ServiceError
@@ -73,49 +78,12 @@ def _without_source_locations(text: str) -> str:
     return re.sub(r" at /\S+\.rs:\d+\.?", "", text).strip()
 
 
-def say(text: str) -> None:
-    emit(f"[launcher] {text}\n")
-
-
-@dataclass
-class LaunchOptions:
-    """What `handover-up` was asked to do.
-
-    Attributes:
-        job: ``handover``, ``demo``, ``check`` or ``none``.
-        run_id: name of this run (recording file name).
-        recording_dir: where the recorder writes.
-        alive_timeout_s: every service must be alive within this time, s.
-        term_timeout_s: SIGINT → SIGTERM and SIGTERM → SIGKILL delays, s.
-    """
-
-    job: str = "handover"
-    run_id: str = field(default_factory=lambda: time.strftime("%Y%m%d-%H%M%S"))
-    recording_dir: Path = Path("recordings")
-    alive_timeout_s: float = 30.0
-    term_timeout_s: float = 5.0
-    receiver: str | None = None
-    posture: str | None = None
-    episodes: int | None = None
-    seed: int | None = None
-    episode_timeout_s: float = 90.0
-
-    def service_args(self, name: str, scene_service: str = "bridge") -> list[str]:
-        """Command-line overrides for service `name` (receiver, posture, seed → the service
-        that simulates the scene: the bridge, or the fake Baxter when the profile has one;
-        posture and seed also → the simulated Kinect service ``kinect``, which renders the
-        same receiver; episodes → the supervisor)."""
-        args: list[str] = []
-        if name == scene_service and self.receiver is not None:
-            args += ["--receiver", self.receiver]
-        if name in (scene_service, "kinect"):
-            if self.posture is not None:
-                args += ["--posture", self.posture]
-            if self.seed is not None:
-                args += ["--seed", str(self.seed)]
-        if name == "supervisor" and self.episodes is not None:
-            args += ["--episodes", str(self.episodes)]
-        return args
+def say(text: str, console: bool = True) -> None:
+    """One line of the launcher's own: into ``launcher.log``, and on the console unless not
+    `console` (never blocks)."""
+    own_line(text)
+    if console:
+        emit(f"[launcher] {text}\n")
 
 
 #: The stack's own packages (an editable install is not byte-compiled by pip).
@@ -154,6 +122,8 @@ class Launcher:
         self.router_pid: int | None = None  # the watchers judge the delivery path's starvation too
         self.restarts: dict[str, int] = {s.name: 0 for s in self.specs}
         self.recording: Path | None = None
+        self.logs = LogFiles(logs_dir(options.recording_dir, options.run_id))
+        self.verbose = options.verbose
         self.stop_requested = threading.Event()
         self.failure: str | None = None
         self.episode_running = False
@@ -171,8 +141,9 @@ class Launcher:
     def _start(self, name: str) -> Child:
         spec = next(s for s in self.specs if s.name == name)
         env = {ROUTER_PID_ENV: str(self.router_pid)} if self.router_pid else None
+        log = self.logs.outlet(name)  # None: no file, so every line goes to the console
         child = Child(name, service_command(spec, self.profile, self._extra_args(name, self.restarts[name])),
-                      self.width, env=env, nice=spec.nice)
+                      self.width, env=env, nice=spec.nice, log=log, verbose=self.verbose or log is None)
         child.start()
         self.children[name] = child
         return child
@@ -219,24 +190,44 @@ class Launcher:
             for name in sorted(missing):
                 code = self.children[name].poll() if name in self.children else None
                 if code is not None:
-                    raise LauncherError(f"{name} {describe_exit(code)} before it came up (see its [{name}] output above)")
+                    raise LauncherError(f"{name} {describe_exit(code)} before it came up (see {self._output(name)})")
             if self.stop_requested.is_set():
                 raise KeyboardInterrupt
             if time.monotonic() > deadline:
                 raise LauncherError(
                     f"{', '.join(sorted(missing))} did not come up within {self.options.alive_timeout_s:.0f} s "
-                    f"(no liveliness token under {self.profile.prefix}/alive/); check its output above"
+                    f"(no liveliness token under {self.profile.prefix}/alive/); see {self._output(*sorted(missing))}"
                 )
             time.sleep(0.01)
 
+    def _open_logs(self, router: RouterProcess) -> None:
+        """Open the run's log files (once the bus is up: a stack that never starts leaves none);
+        without them every line goes to the console."""
+        if self.logs.open():
+            router.log, router.verbose = self.logs.outlet("router"), self.verbose
+        else:
+            self.verbose = router.verbose = True
+            say(f"no log files ({self.logs.error}): every service's output comes here")
+
+    def _output(self, *names: str) -> str:
+        """Where the output of services `names` is, for a line that sends the user there."""
+        return "their output above" if self.verbose else ", ".join(str(self.logs.path(n)) for n in names)
+
     def _shutdown(self) -> None:
+        """Stop the children in order; quiet, one line for those that ended as asked (SIGINT, 0)."""
         self.shutting_down = True
+        t0, stopped, clean = time.monotonic(), 0, True
         for spec in shutdown_order(self.specs):
             child = self.children.get(spec.name)
             if child is None:
                 continue
             code, how = child.stop(self.options.term_timeout_s)
-            say(f"stopped {spec.name} (pid {child.pid}) with {how}: {describe_exit(code)}")
+            stopped, ok = stopped + 1, (code, how) == (0, "SIGINT")
+            clean = clean and ok
+            say(f"stopped {spec.name} (pid {child.pid}) with {how}: {describe_exit(code)}", self.verbose or not ok)
+        if stopped and not self.verbose:
+            say(f"{stopped} services stopped in {time.monotonic() - t0:.2f} s"
+                + (" (each exited with code 0 on SIGINT)" if clean else ""))
 
     # ------------------------------------------------------------------ main
     def run(self) -> int:
@@ -268,7 +259,11 @@ class Launcher:
         monitor: threading.Thread | None = None
         code = EXIT_FAILED
         try:
+            self._open_logs(router)
             say(f"bus on {self.profile.endpoint} (router pid {router.pid}, loopback only, prefix {self.profile.prefix})")
+            if self.logs.error is None:
+                say(f"logs of every service: {self.logs.directory}/"
+                    + ("" if self.verbose else " (--verbose prints them here too)"))
             for spec in self.specs:
                 child = self._start(spec.name)
                 effective = max(spec.nice, os.getpriority(os.PRIO_PROCESS, 0))  # never below the launcher's
@@ -309,6 +304,7 @@ class Launcher:
             say(f"recording: {self.recording}  (open it with: rerun {self.recording})")
         say(f"exit {code}" + (f": {self.failure}" if self.failure else ""))
         stdout_outlet().flush(EXIT_FLUSH_S)  # a blocked stdout delays the exit this long at most
+        self.logs.close()
         return code
 
     def _abort_reason(self) -> str | None:

@@ -6,11 +6,13 @@ which then shuts them down in order) and get SIGTERM from the kernel if the laun
 higher niceness (lower CPU priority) than the launcher's, set before `exec` so that even its
 imports run at that priority; raising niceness needs no privilege.
 
-Output never blocks: each child's pipe is read by its own thread, and every line (the
-children's and the launcher's own) goes to stdout through one bounded `LineOutlet`. When
-stdout does not take output (a pipe nobody reads, a terminal paused with Ctrl-S) lines are
-dropped and counted, and the launcher says how many once stdout takes output again; neither
-a child nor the launcher's own watch ever waits for it.
+Output never blocks: each child's pipe is read by its own thread, which queues every line
+for the child's log file (`services.launcher.logfiles`) and the lines the console shows (all
+with ``--verbose``; else warnings, errors and lines that are no log record) for stdout, through
+one bounded `LineOutlet` per destination. When stdout does not take output (a pipe nobody
+reads, a terminal paused with Ctrl-S) lines are dropped and counted, and the launcher says how
+many once stdout takes output again; neither a child nor the launcher's own watch ever waits
+for it.
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ import threading
 import time
 from collections.abc import Sequence
 
-from services.launcher.core import prefix_line
+from services.launcher.core import prefix_line, shown_when_quiet
 from services.runtime.outlet import LineOutlet
 
 _PR_SET_PDEATHSIG = 1
@@ -60,6 +62,15 @@ def emit(line: str) -> None:
     stdout_outlet().put(line)
 
 
+def relay(name: str, line: str, width: int, log: LineOutlet | None, verbose: bool) -> None:
+    """One output line of child `name`: to its log file, and to the console prefixed ``[name]``
+    when `verbose` or `shown_when_quiet`; never blocks."""
+    if log is not None:
+        log.put(line if line.endswith("\n") else line + "\n")
+    if verbose or shown_when_quiet(line):
+        emit(prefix_line(name, line, width))
+
+
 def _child_setup(nice: int = 0) -> None:  # runs in the child between fork and exec
     os.setpgid(0, 0)
     increment = nice - os.nice(0)
@@ -73,12 +84,16 @@ def _child_setup(nice: int = 0) -> None:  # runs in the child between fork and e
 
 
 class Child:
-    """One service process with its output prefixed ``[name]`` on the launcher's stdout."""
+    """One service process: its output to `log` (its file) and, prefixed ``[name]``, to the
+    launcher's stdout (every line when `verbose`, else what `shown_when_quiet` keeps)."""
 
     def __init__(self, name: str, command: Sequence[str], name_width: int,
-                 env: dict[str, str] | None = None, nice: int = 0) -> None:
+                 env: dict[str, str] | None = None, nice: int = 0, log: LineOutlet | None = None,
+                 verbose: bool = True) -> None:
         """`nice`: the child's niceness, 0..19 (at least the launcher's own)."""
         self.name = name
+        self.log = log
+        self.verbose = verbose
         self.command = list(command)
         self.name_width = name_width
         self.env = env
@@ -103,7 +118,7 @@ class Child:
     def _pump(self) -> None:
         assert self.proc is not None and self.proc.stdout is not None
         for raw in iter(self.proc.stdout.readline, b""):
-            emit(prefix_line(self.name, raw.decode(errors="replace"), self.name_width))
+            relay(self.name, raw.decode(errors="replace"), self.name_width, self.log, self.verbose)
 
     @property
     def pid(self) -> int | None:
@@ -161,12 +176,16 @@ class RouterProcess:
     """The stack's Zenoh router in its own process (`services.launcher.router`).
 
     Its stdout and stderr are one pipe, read by a thread for as long as the router runs: the
-    ``ready`` line, then anything it says (relayed ``[router]``-prefixed, never blocking), so
-    the router (the bus itself) never waits on a full pipe.
+    ``ready`` line, then anything it says (to `log` and, as a child's, to the console `relay`
+    keeps, ``[router]``-prefixed, never blocking), so the router (the bus itself) never waits on
+    a full pipe.
     """
 
-    def __init__(self, config_json: str, name_width: int = len("router")) -> None:
+    def __init__(self, config_json: str, name_width: int = len("router"), log: LineOutlet | None = None,
+                 verbose: bool = True) -> None:
         self.config_json = config_json
+        self.log = log
+        self.verbose = verbose
         self.name_width = name_width
         self.proc: subprocess.Popen[bytes] | None = None
         self._answered = threading.Event()  # the ready line came, or the output ended
@@ -207,7 +226,7 @@ class RouterProcess:
         for raw in iter(self.proc.stdout.readline, b""):
             line = raw.decode(errors="replace")
             if self._ready:
-                emit(prefix_line("router", line, self.name_width))
+                relay("router", line, self.name_width, self.log, self.verbose)
             elif line.startswith(READY):
                 self._ready = True
                 self._answered.set()

@@ -97,6 +97,24 @@ class LineOutlet:
                 self._cond.wait(remaining)
         return True
 
+    def close(self, timeout_s: float = 1.0) -> bool:
+        """Write what waits (up to `timeout_s`), then take no more lines (`put` drops and counts
+        them) and close the descriptor.
+
+        Returns:
+            True when everything was written and the descriptor closed; False when the writer
+            was still in a write at the time-out (the descriptor is then left open: closing it
+            under the writer could hand its number to another file).
+        """
+        self.flush(timeout_s)
+        with self._cond:
+            self._broken = True
+            self._cond.notify_all()
+            if self._busy or self._lines:
+                return False
+        os.close(self.fd)
+        return True
+
     def _take(self) -> list[bytes]:
         with self._cond:
             while not self._lines:

@@ -32,8 +32,10 @@ _STARTED = re.compile(r"started (?P<name>\w+) \(pid (?P<pid>\d+)\)")
 _EPISODE_START = re.compile(r"episode 1: locate")
 _SUMMARY = re.compile(r"\] summary: |exit \d+")
 #: The supervisor's line when its episode ends: with ``--job none`` it still runs the
-#: profile's episode(s), so the stack is idle only after this line.
-_EPISODE_ENDED = re.compile(r"\[supervisor\].*episode summary")
+#: profile's episode(s), so the stack is idle only after this line. It is in the supervisor's
+#: log file (`handover-up` is quiet on the console), or the launcher's output (``--verbose``, or
+#: a launcher from before the log files).
+_EPISODE_ENDED = re.compile(r"INFO +episode summary")
 
 
 @dataclass
@@ -108,17 +110,19 @@ def wake_cost_us(rate_hz: float = 100.0, seconds: float = 2.0) -> float:
     return float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
 
 
-def _wait_for(path: Path, pattern: re.Pattern[str], proc: subprocess.Popen, timeout_s: float) -> str:
+def _wait_for(path: Path | list[Path], pattern: re.Pattern[str], proc: subprocess.Popen, timeout_s: float) -> str:
+    """The text of `path` (of those of the paths that exist, joined) once `pattern` is in it."""
+    paths = path if isinstance(path, list) else [path]
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
-        text = path.read_text(errors="replace")
+        text = "".join(p.read_text(errors="replace") for p in paths if p.exists())
         if pattern.search(text):
             return text
         if proc.poll() is not None:
             raise RuntimeError(f"handover-up exited {proc.returncode} early:\n{text[-3000:]}")
         time.sleep(0.05)
-    raise RuntimeError(f"no line matching {pattern.pattern!r} within {timeout_s} s:\n"
-                       f"{path.read_text(errors='replace')[-3000:]}")
+    text = "".join(p.read_text(errors="replace") for p in paths if p.exists())
+    raise RuntimeError(f"no line matching {pattern.pattern!r} within {timeout_s} s:\n{text[-3000:]}")
 
 
 def _processes(launcher: psutil.Process, text: str) -> dict[str, psutil.Process]:
@@ -163,7 +167,8 @@ def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: 
         launcher = psutil.Process(proc.pid)
         text = _wait_for(out_path, _ALIVE, proc, timeout_s)
         if job == "none":
-            _wait_for(out_path, _EPISODE_ENDED, proc, timeout_s)
+            _wait_for([out_path, tmp_dir / f"handover-cpu-{job}-logs" / "supervisor.log"], _EPISODE_ENDED, proc,
+                      timeout_s)
             time.sleep(settle_s)
             text = out_path.read_text(errors="replace")
         else:

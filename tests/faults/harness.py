@@ -2,10 +2,12 @@
 
 `run_with_faults(plans, receiver=...)`:
 
-1. starts ``python -m services.launcher --port <free port> --receiver <r> --episodes 1`` in
-   its own process group (`HANDOVER_FAULTS` rules for the delay/drop plans, armed through
-   `HANDOVER_FAULTS_ARM_DIR` so they act only from their phase on), reads its output and
-   the children's PIDs from the ``[launcher] started <name> (pid N)`` lines;
+1. starts ``python -m services.launcher --port <free port> --receiver <r> --episodes 1
+   --verbose`` (every service's lines in its output: the supervisor's ``service fault`` and
+   starvation lines are read there) in its own process group (`HANDOVER_FAULTS` rules for
+   the delay/drop plans, armed through `HANDOVER_FAULTS_ARM_DIR` so they act only from their
+   phase on), reads its output and the children's PIDs from the ``[launcher] started <name>
+   (pid N)`` lines;
 2. observes the bus from the test process (a `ServiceNode` on the same port): supervisor
    state and episode summaries, sim truth, joint states, motion stops and goals, release
    events;
@@ -23,6 +25,7 @@ from __future__ import annotations
 import os
 import random
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -156,7 +159,7 @@ def run_with_faults(plans: list[FaultPlan], receiver: str = "absent", seed: int 
         env[ENV_VAR] = ";".join(rules)
         env[ARM_DIR_ENV_VAR] = str(arm_dir)
     args = ["--port", str(port), "--receiver", receiver, "--episodes", "1", "--seed", str(seed),
-            "--recording-dir", str(workdir), "--run-id", "fault", *extra_args]
+            "--recording-dir", str(workdir), "--run-id", "fault", "--verbose", *extra_args]
     rec = RunRecord(receiver=receiver)
     launcher = _Launcher(args, env)
     node: ServiceNode | None = None
@@ -254,6 +257,7 @@ def run_with_faults(plans: list[FaultPlan], receiver: str = "absent", seed: int 
             path.unlink(missing_ok=True)
         for path in workdir.glob("*.rrd"):
             path.unlink(missing_ok=True)
+        shutil.rmtree(workdir / "handover-fault-logs", ignore_errors=True)  # the same lines as `rec.lines`
     return rec
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import os
 import random
+import shutil
 import signal
 import subprocess
 import sys
@@ -154,6 +155,7 @@ def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 
                     p.kill()
         for path in workdir.glob(f"handover-release-bench-{port}*.rrd"):
             path.unlink(missing_ok=True)
+        shutil.rmtree(workdir / f"handover-release-bench-{port}-logs", ignore_errors=True)
     return samples
 
 

@@ -1,4 +1,5 @@
-"""handover-up end to end: bridge + recorder as real processes on a loopback bus."""
+"""handover-up end to end: bridge + recorder as real processes on a loopback bus; the quiet
+console of a default run and the log files beside its recording."""
 
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ import pytest
 from bus_schema import topics
 from services.recorder.readback import read_scalars
 from services.runtime import ServiceNode
+from services.runtime.profile import load_profile_file
 from services.runtime.testing import free_tcp_port, loopback_profile, wait_until
 
 pytestmark = pytest.mark.integration
@@ -61,7 +63,7 @@ def _finish(proc, timeout=30):
 
 
 def test_demo_moves_the_arm_and_the_recording_holds_the_motion(tmp_path):
-    proc, profile = _launch(tmp_path, "--job", "demo")
+    proc, profile = _launch(tmp_path, "--job", "demo", "--verbose")
     published: list = []
     node = None
     try:
@@ -76,8 +78,14 @@ def test_demo_moves_the_arm_and_the_recording_holds_the_motion(tmp_path):
         if proc.poll() is None:
             proc.kill()
     assert proc.returncode == 0, out
-    assert re.search(r"all \d+ services alive", out) and "[bridge]" in out and "[recorder]" in out
-    assert "summary:" in out and "final error" in out
+    assert re.search(r"all \d+ services alive", out) and "summary:" in out and "final error" in out
+    # --verbose: every service's lines on the console too, as in their log files.
+    logs = tmp_path / "handover-t-logs"
+    for name in ("bridge", "recorder"):
+        relayed = [line for line in out.splitlines() if line.startswith(f"[{name}]")]
+        assert any(" INFO " in line for line in relayed), f"no INFO line of {name} relayed:\n{out}"
+        assert relayed[0].split("] ", 1)[1].strip() in (logs / f"{name}.log").read_text()
+    assert f"logs of every service: {logs}/" in out and "--verbose prints them" not in out
     recording = tmp_path / "handover-t.rrd"
     assert recording.is_file()
 
@@ -143,7 +151,10 @@ def test_ctrl_c_leaves_no_process_behind(tmp_path):
             proc.kill()
     assert proc.returncode == 130, out
     assert "SIGINT received: shutting down" in out
-    assert "stopped bridge" in out and "stopped recorder" in out
+    # Quiet: one line for the services that stopped as asked; each one's line in launcher.log.
+    assert re.search(r"\[launcher\] \d+ services stopped in [\d.]+ s \(each exited with code 0 on SIGINT\)", out), out
+    launcher_log = (tmp_path / "handover-t-logs" / "launcher.log").read_text()
+    assert "stopped bridge" in launcher_log and "stopped recorder" in launcher_log
     assert wait_until(lambda: _alive(pids) == [], 5.0), f"left behind: {_alive(pids)}"
     assert (tmp_path / "handover-t.rrd").is_file()
 
@@ -183,8 +194,6 @@ def _thread_niceness(pid: int) -> dict[int, int]:
 
 def test_every_service_runs_at_its_profile_niceness(tmp_path):
     """The launcher starts each child (and so every thread it makes) at the profile's `nice`."""
-    from services.runtime.profile import load_profile_file
-
     expected = {s.name: s.nice for s in load_profile_file("sim").services if s.enabled}
     assert expected["recorder"] == 10 and expected["bridge"] == 0  # the profile under test
     proc, _profile = _launch(tmp_path, "--job", "none")
@@ -214,3 +223,36 @@ def test_every_service_runs_at_its_profile_niceness(tmp_path):
             proc.wait(10)
         reader.join(5)
     assert proc.returncode == 130, "".join(lines)
+
+
+#: Most lines a successful default run may print (issue 19: quiet by default).
+QUIET_MAX_LINES = 40
+
+
+def test_a_default_run_is_quiet_and_each_service_logs_to_its_own_file(tmp_path):
+    """One default handover (one episode, taking receiver): exit 0, no WARNING and at most
+    `QUIET_MAX_LINES` lines on the console, every service's lines in its log file."""
+    proc, _profile = _launch(tmp_path)
+    try:
+        out = _finish(proc, 150)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    lines = out.splitlines()
+    print(f"\n--- the console of a default run ({len(lines)} lines) ---\n{out}")
+    assert proc.returncode == 0, out
+    assert "summary: 1 episode(s): released; object never dropped" in out
+    warnings = [line for line in lines if "WARNING" in line]
+    assert not warnings, "a successful run warned (a warning must need the user's action):\n" + "\n".join(warnings)
+    assert len(lines) <= QUIET_MAX_LINES, f"{len(lines)} lines on the console:\n{out}"
+    assert not [line for line in lines if " INFO " in line], f"INFO records on a quiet console:\n{out}"
+    logs = tmp_path / "handover-t-logs"
+    assert f"[launcher] logs of every service: {logs}/ (--verbose prints them here too)" in lines
+    expected = {s.name for s in load_profile_file("sim").services if s.enabled}
+    assert {p.stem for p in logs.glob("*.log")} == expected | {"launcher", "router"}
+    bridge, supervisor = (logs / "bridge.log").read_text(), (logs / "supervisor.log").read_text()
+    assert "bridge running backend=sim" in bridge and "bridge stopped" in bridge, bridge[-2000:]
+    assert "episode summary episode_id=1 outcome=released" in supervisor, supervisor[-2000:]
+    assert "stop: braking reason=release" in bridge  # a release stop: logged, not a warning
+    launcher_log = (logs / "launcher.log").read_text()
+    assert "summary: 1 episode(s)" in launcher_log and "stopped supervisor" in launcher_log
