@@ -86,9 +86,10 @@ class EpisodeWatch:
         if self._holder is not None:
             where = {"receiver": "in the receiver's hand", "gripper": "in the gripper", "both": "held by both",
                      "table": "on the table", "none": "held by nobody"}.get(self._holder, self._holder)
-            lines.append(f"  object (sim truth): {where}; " + ("DROPPED during the episode" if dropped else "never dropped"))
-        lines.append(f"  grip: peak {msg.peak_grip_force_n:.1f} N, overshoot {msg.force_overshoot_n:.1f} N"
-                     + (f"; release → arm at rest {msg.release_to_stop_s * 1000:.0f} ms" if msg.outcome == "released" else ""))
+            fate = "DROPPED during the episode" if dropped else "never dropped"
+            lines.append(f"  object (sim truth): {where}; {fate}")
+        rest = f"; release → arm at rest {msg.release_to_stop_s * 1000:.0f} ms" if msg.outcome == "released" else ""
+        lines.append(f"  grip: peak {msg.peak_grip_force_n:.1f} N, overshoot {msg.force_overshoot_n:.1f} N{rest}")
         if msg.phase_durations_s:
             lines.append("  phases: " + ", ".join(f"{k} {v:.2f} s" for k, v in msg.phase_durations_s.items()))
         if msg.replans:
@@ -138,7 +139,7 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
         """Protective stop of the arm by the launcher itself (the supervisor may be gone)."""
         try:
             stop_pub.put(reason=f"protective stop: {message}"[:512], protective=True)
-        except Exception:  # the session is closing: the bridge holds on its command time-out
+        except Exception:  # noqa: BLE001 - the session is closing: the bridge holds on its command time-out
             pass
         return JobResult(False, message, watch.reports)
 
@@ -168,7 +169,8 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
                 say(line)
             last_progress = time.monotonic()
             if not report.ok:
-                why = "the object was dropped" if report.dropped else f"{report.summary.outcome}: {report.summary.reason}"
+                summary = report.summary
+                why = "the object was dropped" if report.dropped else f"{summary.outcome}: {summary.reason}"
                 return JobResult(False, f"episode {report.summary.episode_id}: {why}", watch.reports)
             if episodes and len(watch.reports) >= episodes:
                 return JobResult(True, "", watch.reports)

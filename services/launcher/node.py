@@ -260,7 +260,8 @@ class Launcher:
         code = EXIT_FAILED
         try:
             self._open_logs(router)
-            say(f"bus on {self.profile.endpoint} (router pid {router.pid}, loopback only, prefix {self.profile.prefix})")
+            say(f"bus on {self.profile.endpoint} (router pid {router.pid}, loopback only, "
+                f"prefix {self.profile.prefix})")
             if self.logs.error is None:
                 say(f"logs of every service: {self.logs.directory}/"
                     + ("" if self.verbose else " (--verbose prints them here too)"))

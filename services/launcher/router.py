@@ -8,8 +8,8 @@ Protocol with the launcher: the Zenoh config (JSON, from
 `services.runtime.profile.zenoh_config_dict(profile, "router")`) arrives on stdin; once the
 router listens it writes ``ready <endpoint>`` on stdout; on a config or listen error it writes
 one message starting ``router:`` to stderr and exits 1. The launcher reads stdout and stderr
-as one pipe for as long as the router runs, so a write of the router never blocks. It runs until SIGINT or SIGTERM (or until its parent dies:
-the launcher sets `PR_SET_PDEATHSIG`).
+as one pipe for as long as the router runs, so a write of the router never blocks. It runs
+until SIGINT or SIGTERM (or until its parent dies: the launcher sets `PR_SET_PDEATHSIG`).
 """
 
 from __future__ import annotations
@@ -32,13 +32,13 @@ def serve(config_json: str) -> int:
     try:
         config = zenoh.Config.from_json5(config_json)
         endpoint = ", ".join(json.loads(config_json).get("listen", {}).get("endpoints", []))
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - zenoh's ZError or a JSON error: one line, exit 1
         sys.stderr.write(f"router: invalid Zenoh config: {exc}\n")
         return 1
     signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
     try:
         session = zenoh.open(config)
-    except Exception as exc:
+    except Exception as exc:  # noqa: BLE001 - zenoh raises ZError for any listen failure: one line, exit 1
         sys.stderr.write(f"router: cannot listen on {endpoint}: {exc}\n")
         return 1
     os.write(1, f"{READY} {endpoint}\n".encode())

@@ -71,7 +71,7 @@ class OutletHandler(logging.Handler):
     def emit(self, record: logging.LogRecord) -> None:
         try:
             self.outlet.put(self.format(record) + "\n")
-        except Exception:  # a bad format argument must not reach the caller (nor block it)
+        except Exception:  # noqa: BLE001 - a bad format argument must not reach the caller (nor block it)
             self.outlet.put(f"unformattable log record from {record.name}: {record.msg!r}\n")
 
 

@@ -161,13 +161,13 @@ class ServiceNode:
         if self._token is not None:
             try:
                 self._token.undeclare()
-            except Exception:
+            except Exception:  # noqa: BLE001 - best-effort close: the session may be gone already
                 pass
             self._token = None
         if self._session is not None:
             try:
                 self._session.close()
-            except Exception as exc:
+            except Exception as exc:  # noqa: BLE001 - best-effort close, said once
                 log.warning("closing the Zenoh session failed: %s", exc)
             self._session = None
         for sig, handler in self._previous_handlers.items():
@@ -267,7 +267,7 @@ class ServiceNode:
             self._beats += 1
         try:
             self._heartbeat_pub.put(uptime_s=min(now - self._opened_s, 86400.0), beats=beats, pid=os.getpid())
-        except Exception as exc:  # closing session: the heartbeat must never kill a service
+        except Exception as exc:  # noqa: BLE001 - closing session: the heartbeat must never kill a service
             log.debug("heartbeat not sent: %s", exc)
 
     def wait(self, timeout_s: float) -> bool:

@@ -101,7 +101,8 @@ def test_demo_moves_the_arm_and_the_recording_holds_the_motion(tmp_path):
         recorded = dict(zip(times.tolist(), values.tolist(), strict=True))
         matched = [(recorded[m.stamp_ns], m.position_rad[j]) for m in published if m.stamp_ns in recorded]
         missing = [i for i, m in enumerate(published) if m.stamp_ns not in recorded]
-        assert len(matched) == len(published), f"{name}: only {len(matched)}/{len(published)} recorded; missing indices {missing[:20]}"
+        assert len(matched) == len(published), (f"{name}: only {len(matched)}/{len(published)} recorded; "
+                                                f"missing indices {missing[:20]}")
         rec_vals, pub_vals = np.array(matched).T
         assert np.array_equal(rec_vals, pub_vals)
 
