@@ -221,7 +221,7 @@ class Launcher:
             child = self.children.get(spec.name)
             if child is None:
                 continue
-            code, how = child.stop(self.options.term_timeout_s)
+            code, how = child.stop(spec.stop_timeout_s or self.options.term_timeout_s)
             stopped, ok = stopped + 1, (code, how) == (0, "SIGINT")
             clean = clean and ok
             say(f"stopped {spec.name} (pid {child.pid}) with {how}: {describe_exit(code)}", self.verbose or not ok)

@@ -55,6 +55,9 @@ class ServiceSpec:
         config: the service's own config table (a dict for its typed config).
         nice: CPU niceness the launcher starts it with, 0 (normal) to 19 (lowest priority);
             safety services must stay at 0 so heavy non-critical ones cannot starve them.
+        stop_timeout_s: how long the launcher waits after SIGINT before SIGTERM (and as long
+            again before SIGKILL), s; None: the launcher's `term_timeout_s`. The recorder
+            finalises its file after SIGINT (seconds for a long run).
     """
 
     name: str
@@ -66,6 +69,7 @@ class ServiceSpec:
     args: tuple[str, ...] = ()
     config: dict[str, Any] = field(default_factory=dict)
     nice: int = 0
+    stop_timeout_s: float | None = None
 
 
 NICE_RANGE = (0, 19)
@@ -344,7 +348,8 @@ def validate_endpoint(endpoint: str, allow_non_loopback: bool = False) -> None:
 def _as_spec(name: str, table: Any, path: Path) -> ServiceSpec:
     if not isinstance(table, dict):
         raise ProfileError(f"{path}: [services.{name}] must be a table")
-    unknown = set(table) - {"module", "enabled", "restart", "max_restarts", "safety", "args", "config", "nice"}
+    unknown = set(table) - {"module", "enabled", "restart", "max_restarts", "safety", "args", "config", "nice",
+                          "stop_timeout_s"}
     if unknown:
         raise ProfileError(f"{path}: [services.{name}] has unknown keys {sorted(unknown)}")
     restart = table.get("restart", "never")
@@ -363,6 +368,11 @@ def _as_spec(name: str, table: Any, path: Path) -> ServiceSpec:
     if isinstance(nice, bool) or not isinstance(nice, int) or not NICE_RANGE[0] <= nice <= NICE_RANGE[1]:
         raise ProfileError(f"{path}: services.{name}.nice must be an integer from {NICE_RANGE[0]} "
                            f"(normal) to {NICE_RANGE[1]} (lowest CPU priority), got {nice!r}")
+    stop_timeout_s = table.get("stop_timeout_s")
+    if stop_timeout_s is not None and (isinstance(stop_timeout_s, bool) or not isinstance(stop_timeout_s, (int, float))
+                                       or not 0.0 < stop_timeout_s <= 600.0):
+        raise ProfileError(f"{path}: services.{name}.stop_timeout_s must be a number of seconds in (0, 600], "
+                           f"got {stop_timeout_s!r}")
     if nice != 0 and bool(table.get("safety", False)):
         raise ProfileError(f"{path}: services.{name}.nice = {nice}, but {name} is a safety service: "
                            "it must keep nice = 0 so that heavy services cannot starve it")
@@ -376,6 +386,7 @@ def _as_spec(name: str, table: Any, path: Path) -> ServiceSpec:
         args=tuple(args),
         config=config,
         nice=nice,
+        stop_timeout_s=None if stop_timeout_s is None else float(stop_timeout_s),
     )
 
 

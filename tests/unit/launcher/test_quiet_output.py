@@ -224,3 +224,24 @@ def test_help_describes_verbose(capsys):
         main(["--help"])
     out = capsys.readouterr().out
     assert "-v, --verbose" in out and "every line of every service" in out
+
+
+class _TimedChild(_StoppedChild):
+    def __init__(self) -> None:
+        super().__init__(1, 0, "SIGINT")
+        self.timeout_s: float | None = None
+
+    def stop(self, timeout_s: float) -> tuple[int, str]:
+        self.timeout_s = timeout_s
+        return self._result
+
+
+def test_the_recorder_is_given_its_own_time_to_finalise_its_file(console, tmp_path):
+    """SIGTERM cuts the recorder's finalising short (a footer-less file): it gets the profile's
+    `stop_timeout_s`, the others the launcher's `term_timeout_s`."""
+    launcher = node.Launcher(load_profile_file("sim"),
+                             LaunchOptions(run_id="t", recording_dir=tmp_path, term_timeout_s=5.0))
+    launcher.children = {s.name: _TimedChild() for s in launcher.specs}
+    launcher._shutdown()
+    assert launcher.children["recorder"].timeout_s == 60.0
+    assert {c.timeout_s for name, c in launcher.children.items() if name != "recorder"} == {5.0}

@@ -102,3 +102,13 @@ def test_overrides_cannot_raise_the_message_size_cap(tmp_path):
     assert conf["transport"]["link"]["rx"]["max_message_size"] == MAX_PAYLOAD_BYTES + 65536
     path.write_text('[bus]\nendpoint = "tcp/127.0.0.1:7999"\n[bus.zenoh.transport.link.rx]\nmax_message_size = 4096\n')
     assert zenoh_config_dict(load_profile_file(path), "client")["transport"]["link"]["rx"]["max_message_size"] == 4096
+
+
+def test_a_service_may_have_its_own_stop_time_out(tmp_path):
+    assert load_profile_file("sim").service("recorder").stop_timeout_s == 60.0
+    assert load_profile_file("sim").service("bridge").stop_timeout_s is None  # the launcher's term_timeout_s
+    path = tmp_path / "p.toml"
+    for bad in ("0", "-1", "true", '"60"', "601"):
+        path.write_text(f'[bus]\nendpoint = "tcp/127.0.0.1:7999"\n[services.recorder]\nstop_timeout_s = {bad}\n')
+        with pytest.raises(ProfileError, match="stop_timeout_s must be a number of seconds"):
+            load_profile_file(path)
