@@ -76,11 +76,11 @@ def _run(args: argparse.Namespace) -> int:
         raise LauncherUsageError("--seed must be within 0–4294967295")
     if not 0 < options.alive_timeout_s <= 600:
         raise LauncherUsageError("--alive-timeout-s must be within (0, 600] s")
-    _check_recording_dir(options.recording_dir)
     queue_lines = cfg.get("output_queue_lines", DEFAULT_OUTPUT_QUEUE_LINES)
     if isinstance(queue_lines, bool) or not isinstance(queue_lines, int) or not 1 <= queue_lines <= 1_000_000:
         raise ProfileError(f"{profile.path}: launcher.output_queue_lines {queue_lines!r} must be an "
                            "integer within 1–1000000")
+    _check_recording_dir(options.recording_dir)  # last: it makes the folder (bad input changes nothing)
     stdout_outlet(queue_lines)  # before the first line, so the bound holds from the start
     _route_own_logs(options.verbose)
     return Launcher(profile, options).run()

@@ -36,7 +36,8 @@ def run(args):
     session = open_session(loopback_profile(int(sys.argv[1])), "client")
     deadline = time.monotonic() + 5.0  # Zenoh starts a link's threads as the link comes up
     names = threads()
-    while "app-0" not in names or (os.environ.get("ZENOH_RUNTIME", "").startswith("(rx") and "tx-0" not in names):
+    wanted = {"rx-0", "rx-1", "tx-0"} if os.environ.get("ZENOH_RUNTIME", "").startswith("(rx") else {"app-0"}
+    while not wanted <= set(names):
         if time.monotonic() > deadline:
             break
         time.sleep(0.05)
