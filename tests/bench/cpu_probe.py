@@ -177,12 +177,33 @@ def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: 
         before = {name: _cpu_s(p) for name, p in procs.items()}
         before_sw = {name: _switches(p) for name, p in procs.items()}
         t0 = time.monotonic()
+        # The last reading of each process while it lived: a service that ends with its
+        # episode (the supervisor, once its summary is out) is counted up to its exit.
+        last = dict(before)
+        last_sw = dict(before_sw)
+
+        def sample() -> None:
+            for name, p in procs.items():
+                cpu_s, switches = _cpu_s(p), _switches(p)
+                if cpu_s == cpu_s and switches == switches:  # not nan: still alive
+                    last[name], last_sw[name] = cpu_s, switches
+
         if job == "none":
             time.sleep(idle_s)
+            sample()
         else:
-            _wait_for(out_path, _SUMMARY, proc, timeout_s)
-        after = {name: _cpu_s(p) for name, p in procs.items()}
-        after_sw = {name: _switches(p) for name, p in procs.items()}
+            deadline = time.monotonic() + timeout_s
+            ticks = 0
+            while not _SUMMARY.search(out_path.read_text(errors="replace")):
+                if proc.poll() is not None or time.monotonic() > deadline:
+                    raise RuntimeError(f"no summary within {timeout_s} s:\n"
+                                       f"{out_path.read_text(errors='replace')[-3000:]}")
+                if ticks % 4 == 0:  # every 0.2 s: the probe's own reads stay light
+                    sample()
+                ticks += 1
+                time.sleep(0.05)
+            sample()
+        after, after_sw = last, last_sw
         seconds = time.monotonic() - t0
         window = CpuWindow(seconds, {n: (after[n] - before[n]) / seconds for n in procs},
                            {n: (after_sw[n] - before_sw[n]) / seconds for n in procs})
