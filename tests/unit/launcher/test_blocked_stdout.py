@@ -93,7 +93,9 @@ def test_relay_never_waits_for_a_blocked_stdout_and_reports_what_it_dropped(nonb
     relayed = [line for line in lines if line.startswith("[chatty]")]
     notices = [_DROPPED.match(line) for line in lines if _DROPPED.match(line)]
     assert relay_s < 20.0
-    assert lines and lines[-1] == "[launcher] last line", f"the output ends with {lines[-3:]}"
+    # The last line may push one more queued line out: its drop notice may then follow it.
+    content = [line for line in lines if not _DROPPED.match(line)]
+    assert content and content[-1] == "[launcher] last line", f"the output ends with {lines[-3:]}"
     assert notices, "no dropped-line count"
     dropped = int(notices[-1][2])
     assert sum(int(m[1]) for m in notices) == dropped
