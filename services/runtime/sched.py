@@ -111,6 +111,15 @@ def read_sched(pid: int, at_s: float, proc_root: str = "/proc") -> SchedSample |
     return SchedSample(at_s, wait_s, state)
 
 
+def read_state(pid: int, proc_root: str = "/proc") -> str | None:
+    """The state letter of process `pid` now (``/proc/PID/stat`` alone), None when it is gone."""
+    try:
+        with open(f"{proc_root}/{pid}/stat", "rb") as f:
+            return parse_state(f.read(512).decode("ascii", "replace"))
+    except OSError:
+        return None
+
+
 def starved(older: SchedSample, newer: SchedSample, fraction: float = STARVED_FRACTION) -> bool:
     """True when, between the two samples, the process waited on the run queue for at least
     `fraction` of the time and is not stopped now."""
@@ -137,6 +146,8 @@ class StarvationJudge:
 
     def __init__(self, read=read_sched, machine: MachineHistory | None = None) -> None:
         self._read = read
+        # The state alone is one small file; a fake `read` (tests) gives it with its sample.
+        self._state = read_state if read is read_sched else self._state_from_read
         self.machine = machine if machine is not None else MachineHistory()
         self._since: dict[int, float] = {}  # when each quiet process was last heard from
         self._machine_seen: dict[int, str] = {}  # what the machine did in its silence
@@ -194,16 +205,20 @@ class StarvationJudge:
         self._base.pop(pid, None)
         self._verdict.pop(pid, None)
 
+    def _state_from_read(self, pid: int) -> str | None:
+        sample = self._read(pid, 0.0)
+        return None if sample is None else sample.state
+
     def stopped(self, pid: int, now_s: float) -> bool:
         """True when `pid` is stopped (SIGSTOP), a zombie, gone or unreadable now."""
-        fresh = self._read(pid, now_s)
-        return fresh is None or fresh.state in _STOPPED_STATES
+        state = self._state(pid)
+        return state is None or state in _STOPPED_STATES
 
     def is_stopped_now(self, pid: int, now_s: float) -> bool:
         """True only when `pid` is readable and stopped (``T``/``t``): a process that surely
         cannot run until it is continued (gone or unreadable: False, liveliness tells)."""
-        fresh = self._read(pid, now_s)
-        return fresh is not None and fresh.state in "Tt"
+        state = self._state(pid)
+        return state is not None and state in "Tt"
 
     def excuse(self, pid: int, now_s: float, machine: bool = True) -> str | None:
         """Why `pid`'s silence is starvation (one clause), or None when it is not excused.
