@@ -374,6 +374,13 @@ class Sequencer:
         return actions
 
     # ------------------------------------------------------------------ the tick
+    @property
+    def resting(self) -> bool:
+        """True once the last episode has ended normally (``done`` or ``failed``, no episode
+        to come): nothing but the watchdog can act, so the node may tick more slowly. A
+        protective stop is not resting: its stop is repeated at the full rate."""
+        return self.finished and self.phase in ("done", "failed")
+
     def tick(self, snap: Snapshot) -> Actions:
         """One sequencer step at `snap.now_s`."""
         actions = self._tick_phase(snap)

@@ -1,10 +1,10 @@
 """Bus wiring of the supervisor: everything in, motion goals / stops / state / summaries out.
 
-The loop sleeps on the bus between 100 Hz ticks (`node.wait`), so a release event is acted
-on as soon as it arrives (the stop goes out before anything else is looked at), not at the
-next tick. Liveliness changes arrive on a Zenoh thread and are queued; heartbeats and the
-watched data streams are drained every wake-up. All decisions are in `core.Sequencer` and
-`watchdog.Watchdog`.
+The loop sleeps on the bus between 100 Hz ticks (`node.wait`; 40 Hz once the last episode
+has ended, `RESTING_PERIOD_S`), so a release event is acted on as soon as it arrives (the
+stop goes out before anything else is looked at), not at the next tick. Liveliness changes
+arrive on a Zenoh thread and are queued; heartbeats and the watched data streams are drained
+every wake-up. All decisions are in `core.Sequencer` and `watchdog.Watchdog`.
 """
 
 from __future__ import annotations
@@ -41,6 +41,14 @@ WATCHED_STREAMS = {
 }
 #: supervisor/state is published at least this often, s.
 STATE_PERIOD_S = 0.05
+#: Tick period once the last episode has ended (`Sequencer.resting`), s: nothing but the
+#: watchdog can act then. Half the state period, so the state still goes out every 50 ms;
+#: a release or a liveliness change wakes the loop at once whatever the period, and a
+#: killed or stopped service is still seen within 100 ms (DESIGN §8).
+RESTING_PERIOD_S = STATE_PERIOD_S / 2
+#: A tick this close before the state is due sends it (a tick a hair early would otherwise
+#: push the state one whole tick late), s.
+STATE_EARLY_S = 0.004
 
 
 def watched_services(profile: Profile) -> list[str]:
@@ -100,7 +108,7 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                     repeat_log.info(ids["goal_id"], "goal sent again: no report from motion on it yet", **ids)
                 else:
                     log.info("goal", extra=kv(**ids))
-            if actions.state_changed or now_s - last_state_s >= STATE_PERIOD_S:
+            if actions.state_changed or now_s - last_state_s >= STATE_PERIOD_S - STATE_EARLY_S:
                 state_pub.put(phase=sequencer.phase, episode_id=sequencer.episode_id,
                               reason=sequencer.reason[:512], elapsed_s=min(sequencer.elapsed_s(now_s), 86400.0),
                               grip_request=sequencer.grip_request)
@@ -176,9 +184,10 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                     act(sequencer.on_fault(now, fault.text(), critical), now)
                 if now < next_tick:
                     continue
-                next_tick += config.period_s
+                period_s = RESTING_PERIOD_S if sequencer.resting else config.period_s
+                next_tick += period_s
                 if next_tick < now:
-                    next_tick = now + config.period_s  # late: do not burst
+                    next_tick = now + period_s  # late: do not burst
                 # 3. Start when everyone is up.
                 if sequencer.phase == "idle" and sequencer.episode is None:
                     if watchdog.all_alive():

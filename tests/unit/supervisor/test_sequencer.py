@@ -125,9 +125,10 @@ def test_a_taking_receiver_episode_releases_stops_the_arm_and_retracts_home():
         w.tick(0.05)
     assert w.now - rest_at == pytest.approx(0.5, abs=0.06)
     assert w.seq.phase == "retract" and w.goals[-1]["kind"] == "retract" and w.goals[-1]["joint_target_rad"] == HOME
+    assert not w.seq.resting  # mid-episode: the full 100 Hz tick
     w.motion("reached")
     w.tick()
-    assert w.seq.phase == "done" and w.seq.finished
+    assert w.seq.phase == "done" and w.seq.finished and w.seq.resting  # the last episode ended
     s = w.summaries[-1]
     assert s["outcome"] == "released" and s["peak_grip_force_n"] == 10.5
     assert s["force_overshoot_n"] == pytest.approx(1.5)  # 10.5 N peak − 9.0 N at the transfer start
@@ -214,6 +215,7 @@ def test_a_critical_fault_makes_a_protective_stop_that_never_lets_go():
     actions = w.record(w.seq.on_fault(w.now, "gripper: process gone (liveliness token lost)", critical=True))
     assert actions.stop["protective"] is True and "gripper" in actions.stop["reason"]
     assert w.seq.phase == "protective_stop" and w.seq.finished
+    assert not w.seq.resting  # the stop is repeated at the full rate
     assert w.summaries[-1]["outcome"] == "protective_stop"
     assert w.summaries[-1]["faults"] == ["gripper: process gone (liveliness token lost)"]
     # A release after the protective stop does not start anything; no goal ever follows.
@@ -259,9 +261,13 @@ def test_episodes_follow_each_other_until_the_count():
     w = World(episodes=2, between_episodes_s=0.5, locate_timeout_s=0.2)
     w.snap.obj = ObjectEstimate(**H, found=False)
     w.record(w.seq.start_episode(w.now))
+    resting = []
     for _ in range(40):
         w.tick(0.05)
+        resting.append(w.seq.resting)
     assert [s["episode_id"] for s in w.summaries] == [1, 2] and w.seq.finished
+    # Between the two episodes (done, one to come) the sequencer is not resting; after the last it is.
+    assert resting[-1] and not all(resting) and resting == sorted(resting)
 
 
 def test_target_filter_takes_the_median_over_its_window():
