@@ -7,11 +7,16 @@ Frame after frame, `robot_sim.kinect.scene_depth.SceneDepthRenderer` casts only 
 and `robot_sim.kinect.quantise.DepthQuantiser` gives `kinect_depth_mm`'s readings from kept
 buffers; both give the same values as the plain functions here.
 
-Noise model (Khoshelham & Elberink 2012, "Accuracy and resolution of Kinect depth data"):
-random error σ_z = 1.425e-3 · z² (m), then the disparity is quantised to 1/8 pixel, which
-gives Kinect v1's depth steps (≈ 1 cm at 2 m), then depths are rounded to millimetres.
-Pixels outside the 0.5–4.5 m range read 0 (no reading), and a small random fraction of
-pixels drops out.
+Noise model (Khoshelham & Elberink 2012, "Accuracy and resolution of Kinect depth data"): the
+Kinect v1 measures disparity d = f·b / z, counted in 1/8-pixel steps (f = 571 px at full
+resolution, b = 0.075 m), and its random error is a constant error in disparity, whose effect
+on depth grows with z². We draw it in disparity steps, σ_d = c·f·b / step ≈ 0.488 steps with
+c = `DEPTH_NOISE_COEFF_PER_M`, the disparity error whose first-order depth error is the paper's
+σ_z = c·z² (m): the reading is k = round(d + σ_d·N) steps (N standard normal), z = f·b / (k·step),
+rounded to millimetres; the integer k gives Kinect v1's depth steps (≈ 1 cm at 2 m). N comes
+from a table of Gaussian quantiles indexed by a uniform 16-bit draw (`DISPARITY_NOISE_TABLE_STEPS`).
+A pixel reads 0 (no reading) when its ideal depth or its reading is outside the 0.5–4.5 m
+range, and each pixel drops out independently with probability `dropout_fraction`.
 """
 
 from __future__ import annotations
@@ -20,13 +25,27 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from scipy.special import ndtri
 
 from robot_sim.kinect import camera as cam
 from robot_sim.kinect.camera import KinectCamera
 from robot_sim.kinect.shapes import Box, Capsule, ray_box, ray_capsule, ray_horizontal_plane
 
-#: Random depth error coefficient (m⁻¹): σ_z = coefficient · z².
+#: Random depth error coefficient (m⁻¹): σ_z = coefficient · z² (to first order).
 DEPTH_NOISE_COEFF_PER_M = 1.425e-3
+#: f·b / step (disparity steps · m): the disparity of depth z (m) is this / z, in steps.
+DISPARITY_DEPTH_STEPS_M = cam.KINECT_FULL_RES_FOCAL_PX * cam.KINECT_BASELINE_M / cam.KINECT_DISPARITY_STEP_PX
+#: σ of the random disparity error, in disparity steps (≈ 0.488): σ_z = c·z² in depth.
+DISPARITY_NOISE_STEPS = DEPTH_NOISE_COEFF_PER_M * DISPARITY_DEPTH_STEPS_M
+#: Number of entries of the Gaussian table (a uniform uint16 draw indexes it).
+NOISE_TABLE_SIZE = 65536
+#: Disparity errors (steps, float32): σ_d · Φ⁻¹((i + 0.5) / 65536), the exact quantiles of a
+#: Gaussian discretised into 65536 equally likely values. Indexed by a uniform uint16 draw, it
+#: gives σ_d·N with the tails truncated at about 4.3 σ_d (|N| ≤ 4.32; a normal goes beyond with
+#: probability 1.5e-5): one 2-byte draw per pixel instead of a float64 normal.
+DISPARITY_NOISE_TABLE_STEPS = (DISPARITY_NOISE_STEPS * ndtri((np.arange(NOISE_TABLE_SIZE) + 0.5)
+                                                             / NOISE_TABLE_SIZE)).astype(np.float32)
+DISPARITY_NOISE_TABLE_STEPS.flags.writeable = False
 #: A primitive that comes within this distance (m) of the camera's plane is cast over the
 #: whole image (its projection is unbounded or nearly so).
 NEAR_PLANE_M = 0.05
@@ -158,23 +177,29 @@ def kinect_depth_mm(
 ) -> np.ndarray:
     """Turn an ideal depth image (m, inf = no hit) into Kinect v1 readings (uint16 mm).
 
+    The plain reference of `robot_sim.kinect.quantise.DepthQuantiser` (same values, same
+    random draws in the same order): a uniform uint16 per pixel for the noise, then, with
+    dropouts, the number of dropped pixels (binomial) and which ones.
+
     Args:
         depth_m: ideal depths.
         rng: random generator for noise and dropouts; None gives the quantised, noise-free
             image (for tests).
-        dropout_fraction: fraction of pixels with no reading.
+        dropout_fraction: probability that a pixel has no reading.
     """
     z = np.array(depth_m, dtype=float)
     valid = np.isfinite(z) & (z >= cam.KINECT_MIN_RANGE_M) & (z <= cam.KINECT_MAX_RANGE_M)
-    zv = np.where(valid, z, 1.0)
-    if rng is not None:
-        zv = zv + rng.standard_normal(z.shape) * DEPTH_NOISE_COEFF_PER_M * zv * zv
-        zv = np.maximum(zv, 1e-3)
-    fb = cam.KINECT_FULL_RES_FOCAL_PX * cam.KINECT_BASELINE_M
-    disparity = np.round(fb / zv / cam.KINECT_DISPARITY_STEP_PX) * cam.KINECT_DISPARITY_STEP_PX
-    zq = fb / np.maximum(disparity, cam.KINECT_DISPARITY_STEP_PX)
-    mm = np.round(zq * 1000.0)
-    if rng is not None and dropout_fraction > 0.0:
-        valid &= rng.random(z.shape) >= dropout_fraction
+    d = DISPARITY_DEPTH_STEPS_M / np.where(valid, z, 1.0)  # ideal disparity, steps
+    if rng is None:
+        k = np.rint(d)
+    else:
+        # k = round(d + σ_d·N) = floor(d + 0.5 + σ_d·N), summed in float32 like the quantiser.
+        noise = DISPARITY_NOISE_TABLE_STEPS[rng.integers(0, NOISE_TABLE_SIZE, size=z.shape, dtype=np.uint16)]
+        k = np.floor((d + 0.5).astype(np.float32) + noise).astype(float)
+    zq = DISPARITY_DEPTH_STEPS_M / np.maximum(k, 1.0)  # the reading, m
     valid &= (zq >= cam.KINECT_MIN_RANGE_M) & (zq <= cam.KINECT_MAX_RANGE_M)
-    return np.where(valid, mm, 0).astype(np.uint16)
+    mm = np.where(valid, np.round(zq * 1000.0), 0).astype(np.uint16)
+    if rng is not None and dropout_fraction > 0.0:
+        # Bernoulli(p) per pixel: the number of dropouts, then which pixels.
+        mm.flat[rng.choice(z.size, rng.binomial(z.size, dropout_fraction), replace=False)] = 0
+    return mm
