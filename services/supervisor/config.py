@@ -54,9 +54,12 @@ class SupervisorConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
         replan_threshold_m: a new transfer target farther than this from the current reach
             goal starts a new reach.
         max_replans: new reach goals allowed per episode.
-        heartbeat_timeout_s: a watched service whose heartbeat (20 Hz) is older than this is
-            silent: a frozen service is noticed 0.15–0.21 s after it froze (the 250 ms p99
-            target, DESIGN §8); on one host a starved one is excused (`services.runtime.sched`).
+        heartbeat_timeout_s: a watched service whose heartbeat (10 Hz on one host, 20 Hz
+            across hosts) is older than this is silent; default (None): two beat periods and
+            0.1 s (`watchdog.default_heartbeat_timeout_s`: 0.3 s on one host, 0.2 s across
+            hosts). On one host a stopped service is silent sooner (about 0.13 s after its
+            last beat: the kernel says it is stopped) and a starved one is excused
+            (`services.runtime.sched`).
         report_heartbeat_timeout_s: the heartbeat age that makes a ``report``-only service
             silent (the recorder runs at a low CPU priority and may stall in long writes;
             nothing stops for it, so it is not judged by the 0.2 s of the critical ones).
@@ -89,7 +92,7 @@ class SupervisorConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
     human_return_s: Seconds = 3.0
     replan_threshold_m: Annotated[float, Meta(gt=0.0, le=2.0)] = 0.05
     max_replans: Annotated[int, Meta(ge=0, le=100)] = 3
-    heartbeat_timeout_s: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.2
+    heartbeat_timeout_s: Annotated[float, Meta(gt=0.0, le=60.0)] | None = None
     report_heartbeat_timeout_s: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.75
     stream_timeout_s: Annotated[float, Meta(gt=0.0, le=60.0)] = 0.2
     watch: dict[str, Watch] = msgspec.field(default_factory=lambda: {"recorder": "report"})

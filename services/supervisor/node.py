@@ -16,10 +16,11 @@ from bus_schema import topics
 from robot_sim.baxter import RIGHT_ARM_HOME_RAD
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.runtime.liveliness import LivelinessWatcher
+from services.runtime.node import heartbeat_period_s
 from services.runtime.sched import MAX_EXCUSED_S, ServiceStarvation, delivery_pids
 from services.supervisor.config import SupervisorConfig
 from services.supervisor.core import Actions, Sequencer, Snapshot, TargetFilter
-from services.supervisor.watchdog import Watchdog
+from services.supervisor.watchdog import Watchdog, default_heartbeat_timeout_s, judging_for_beats
 
 log = logging.getLogger(__name__)
 #: A loop iteration this much later than the previous one means the supervisor itself was
@@ -62,11 +63,13 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
     services = watched_services(profile)
     # One host (no other machine on the bus): a silence can be told apart as starvation.
     starvation = None if profile.allow_non_loopback else ServiceStarvation(path_pids=delivery_pids())
-    watchdog = Watchdog(services, config.heartbeat_timeout_s, config.stream_timeout_s,
+    beat_period_s = heartbeat_period_s(profile)
+    heartbeat_timeout_s = config.heartbeat_timeout_s or default_heartbeat_timeout_s(beat_period_s)
+    watchdog = Watchdog(services, heartbeat_timeout_s, config.stream_timeout_s,
                         {s: o for s, o in WATCHED_STREAMS.items() if o in services},
                         {name: config.report_heartbeat_timeout_s for name in services
                          if config.watch.get(name) == "report"},
-                        excuser=starvation, max_excused_s=MAX_EXCUSED_S)
+                        excuser=starvation, max_excused_s=MAX_EXCUSED_S, **judging_for_beats(beat_period_s))
     excuse_log = RateLimitedLog(log, 5.0)
     sequencer = Sequencer(config, RIGHT_ARM_HOME_RAD)
     liveliness_events: queue.SimpleQueue[tuple[str, bool, float]] = queue.SimpleQueue()

@@ -3,7 +3,7 @@
 - **Lost** (the process died): its liveliness token went away (Zenoh notices a killed
   process within milliseconds when the router gets a CPU), or, on one host, the kernel says
   its process ended (`excuser.exited()`, a process file descriptor: no bus in between).
-- **Silent** (frozen, hung or cut off): its heartbeat (`runtime/heartbeat`, 20 Hz) is older
+- **Silent** (frozen, hung or cut off): its heartbeat (`runtime/heartbeat`, 10 Hz on one host) is older
   than `heartbeat_timeout_s`, or one of the data streams it owns that the handover relies on
   is older than `stream_timeout_s`. A frozen process keeps its liveliness token until the
   link lease expires (seconds), so freshness is what catches it.
@@ -81,6 +81,21 @@ class _Watched:
     reported: bool = False
 
 
+def judging_for_beats(period_s: float) -> dict[str, float]:
+    """`Watchdog` settings for heartbeats every `period_s` (s): a service is noted to the
+    excuser once a beat is 10 ms overdue (``note_after_s``) and, when its process is stopped,
+    silent once a beat is 30 ms overdue (``stopped_after_s``): at 10 Hz on one host a stopped
+    service is silent 0.13 s after its last beat at the latest."""
+    return {"note_after_s": period_s + 0.01, "stopped_after_s": period_s + 0.03}
+
+
+def default_heartbeat_timeout_s(period_s: float) -> float:
+    """The heartbeat age that makes a service silent when the profile does not say, s: two
+    beat periods and 0.1 s (0.3 s at 10 Hz on one host, 0.2 s at 20 Hz across hosts): a beat
+    may come 0.2 s (0.15 s) late before its service is judged."""
+    return 2.0 * period_s + 0.1
+
+
 class Watchdog:
     """Tracks the watched services and reports new faults.
 
@@ -93,7 +108,9 @@ class Watchdog:
             (report-only services, e.g. the recorder, which may stall in long writes), s.
         excuser: judges a silence as starvation (None: never excused).
         max_excused_s: a silence this long is a fault even when excused, s.
-        note_after_s: a service quiet this long is noted to the excuser at each check, s.
+        note_after_s: a service without a heartbeat this long is noted to the excuser at
+            each check, s (`judging_for_beats`: one beat period and 10 ms).
+        stream_note_after_s: the same for an owned data stream, s.
         stopped_after_s: a service without a heartbeat this long whose process the excuser
             finds stopped (SIGSTOP, state ``T``) is silent at once, without waiting for
             `heartbeat_timeout_s`: nothing but a SIGCONT can make it beat again, s.
@@ -102,10 +119,12 @@ class Watchdog:
     def __init__(self, services: list[str], heartbeat_timeout_s: float = 0.25, stream_timeout_s: float = 0.2,
                  streams: dict[str, str] | None = None,
                  heartbeat_timeouts_s: dict[str, float] | None = None, excuser: Excuser | None = None,
-                 max_excused_s: float = 1.0, note_after_s: float = 0.06, stopped_after_s: float = 0.1) -> None:
+                 max_excused_s: float = 1.0, note_after_s: float = 0.06, stopped_after_s: float = 0.1,
+                 stream_note_after_s: float = 0.06) -> None:
         self.excuser = excuser
         self.max_excused_s = max_excused_s
         self.note_after_s = note_after_s
+        self.stream_note_after_s = stream_note_after_s
         self.stopped_after_s = stopped_after_s
         self.excused: list[tuple[str, str]] = []  # (service, why) of the last `pending` call
         self.heartbeat_timeout_s = heartbeat_timeout_s
@@ -194,10 +213,11 @@ class Watchdog:
         whether starvation may excuse it (not when its process is stopped); a service quiet
         for `note_after_s` is noted to the excuser."""
         timeout_s = self.heartbeat_timeouts_s.get(name, self.heartbeat_timeout_s)
-        quiet_s = 0.0 if w.last_beat_s is None else now_s - w.last_beat_s
+        beat_quiet_s = 0.0 if w.last_beat_s is None else now_s - w.last_beat_s
+        quiet_s = 0.0  # of the owned streams
         fault = None
-        if w.last_beat_s is not None and quiet_s > timeout_s:
-            fault = Fault(name, "silent", f"silent: no heartbeat for {quiet_s:.3f} s", now_s, w.last_beat_s)
+        if w.last_beat_s is not None and beat_quiet_s > timeout_s:
+            fault = Fault(name, "silent", f"silent: no heartbeat for {beat_quiet_s:.3f} s", now_s, w.last_beat_s)
         else:
             for suffix, at_s in w.streams.items():
                 quiet_s = max(quiet_s, now_s - at_s)
@@ -205,11 +225,10 @@ class Watchdog:
                     fault = Fault(name, "silent", f"silent: no {suffix} for {now_s - at_s:.3f} s", now_s, at_s)
                     break
         if (fault is None and w.last_beat_s is not None and self.excuser is not None
-                and now_s - w.last_beat_s > self.stopped_after_s and self.excuser.stopped(name, now_s)):
-            beat_quiet_s = now_s - w.last_beat_s
+                and beat_quiet_s > self.stopped_after_s and self.excuser.stopped(name, now_s)):
             fault = Fault(name, "silent", f"silent: no heartbeat for {beat_quiet_s:.3f} s, its process is stopped",
                           now_s, w.last_beat_s)
             return fault, False
-        if self.excuser is not None and quiet_s > self.note_after_s:
-            self.excuser.note(name, now_s, now_s - quiet_s)
+        if self.excuser is not None and (beat_quiet_s > self.note_after_s or quiet_s > self.stream_note_after_s):
+            self.excuser.note(name, now_s, now_s - max(quiet_s, beat_quiet_s))
         return fault, True

@@ -68,3 +68,38 @@ def test_a_report_only_service_has_its_own_heartbeat_timeout():
     assert w.check(10.74) == []
     (fault,) = w.check(10.76)
     assert fault.service == "recorder" and "no heartbeat for 0.760 s" in fault.detail
+
+
+def test_ten_hz_beats_on_one_host_a_stopped_service_is_silent_130_ms_after_its_last_beat():
+    """One host: beats every 0.1 s; the kernel's word that a process is stopped makes it
+    silent once a beat is 30 ms overdue; a running one gets the default 0.3 s time-out."""
+    from services.runtime.node import HEARTBEAT_PERIOD_S, MULTIHOST_HEARTBEAT_PERIOD_S
+    from services.supervisor.watchdog import default_heartbeat_timeout_s, judging_for_beats
+    from tests.unit.runtime.test_sched import FixedExcuser
+
+    assert (HEARTBEAT_PERIOD_S, MULTIHOST_HEARTBEAT_PERIOD_S) == (0.1, 0.05)
+    assert abs(default_heartbeat_timeout_s(0.1) - 0.3) < 1e-12  # one host
+    assert abs(default_heartbeat_timeout_s(0.05) - 0.2) < 1e-12  # across hosts: as before
+    excuser = FixedExcuser(None)
+    w = Watchdog(["motion", "planner"], heartbeat_timeout_s=default_heartbeat_timeout_s(0.1), excuser=excuser,
+                 **judging_for_beats(0.1))
+    for name in ("motion", "planner"):
+        w.liveliness(name, True, 0.0)
+        w.heartbeat(name, 10.0)
+    excuser.stopped_services = {"motion"}
+    assert w.check(10.10) == [] and excuser.noted == []  # one period: on time, nothing noted
+    assert w.check(10.12) == [] and {s for s, _ in excuser.noted} == {"motion", "planner"}  # 10 ms overdue: noted
+    (fault,) = w.check(10.135)
+    assert fault.service == "motion" and "stopped" in fault.detail  # stopped: silent at 0.135 s
+    assert w.check(10.29) == []  # planner runs: a beat 0.19 s late is still not judged
+    (late,) = w.check(10.31)
+    assert late.service == "planner" and "no heartbeat for 0.310 s" in late.detail
+
+
+def test_the_profile_sets_the_heartbeat_period():
+    from types import SimpleNamespace
+
+    from services.runtime.node import heartbeat_period_s
+
+    assert heartbeat_period_s(SimpleNamespace(allow_non_loopback=False)) == 0.1
+    assert heartbeat_period_s(SimpleNamespace(allow_non_loopback=True)) == 0.05
