@@ -38,6 +38,13 @@ _outlet: LineOutlet | None = None
 _outlet_lock = threading.Lock()
 
 
+#: Thread pools of numerical libraries, off in every service: their arrays are small, and
+#: an idle pool costs more than it saves. OpenCV's workers poll with ``sched_yield`` after
+#: each parallel call (measured in the idle tracker: ~300 wakes a second) and OpenBLAS keeps
+#: a worker per core; with one thread each, a call runs in the caller's thread.
+SINGLE_THREADED_LIBRARIES = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENCV_FOR_THREADS_NUM": "1"}
+
+
 def stdout_outlet(max_lines: int = DEFAULT_OUTPUT_QUEUE_LINES) -> LineOutlet:
     """The launcher's non-blocking stdout, made on first use with room for `max_lines` waiting
     lines (`max_lines` of a later call is ignored: call it first where the bound matters).
@@ -105,6 +112,8 @@ class Child:
     def start(self) -> None:
         env = dict(os.environ)
         env["PYTHONUNBUFFERED"] = "1"
+        for key, value in SINGLE_THREADED_LIBRARIES.items():
+            env.setdefault(key, value)  # a user's own value stays
         if self.env:
             env.update(self.env)
         self.proc = subprocess.Popen(
