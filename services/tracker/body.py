@@ -15,23 +15,35 @@ ratios of the standing height H, arms scaled so the arm span equals H):
 - weight: not measurable by a camera; it comes from the receiver's profile.
 Per-frame values are kept for the last `window` frames and the estimate is their median, so
 jitter of 50–100 mm per joint averages down and single bad frames do not matter.
+
+Per frame: the nine segment lengths come from one `row_norms` call (numpy's vector norm, bit
+for bit), the window is a `RowWindow` (no stacking of 90 rows), and the estimate is kept
+until the window changes.
 """
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 
 from robot_sim.kinect import receiver as anthropometry
+from services.tracker.lean import RowWindow, median_rows, row_norms
 
 REQUIRED_JOINTS = (
     "head", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_hand",
     "right_hand", "left_hip", "right_hip", "left_knee", "right_knee", "left_foot", "right_foot",
 )
 LEG_RATIO = anthropometry.THIGH_RATIO + anthropometry.SHANK_RATIO
+_J = {name: i for i, name in enumerate(REQUIRED_JOINTS)}
+#: Segments (from, to) as rows of the stacked joints: thighs, shanks, upper arms and forearms
+#: (left, right), then shoulder to shoulder.
+_SEGMENTS = np.array([[_J[f"{s}_{a}"], _J[f"{s}_{b}"]] for a, b in (("hip", "knee"), ("knee", "foot"))
+                      for s in ("left", "right")]
+                     + [[_J[f"{s}_{a}"], _J[f"{s}_{b}"]] for s in ("left", "right")
+                        for a, b in (("shoulder", "elbow"), ("elbow", "hand"))]
+                     + [[_J["left_shoulder"], _J["right_shoulder"]]])
 
 
 @dataclass(frozen=True)
@@ -51,10 +63,6 @@ class BodyDimensions:
     frames: int = 0
 
 
-def _dist(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.linalg.norm(a - b))
-
-
 class BodyDimensionEstimator:
     """Running body-dimension estimate.
 
@@ -65,11 +73,13 @@ class BodyDimensionEstimator:
 
     def __init__(self, floor_z_m: float, window: int = 90) -> None:
         self.floor_z_m = floor_z_m
-        self._rows: deque[np.ndarray] = deque(maxlen=window)
+        self._rows = RowWindow(window, 7)
+        self._estimate: BodyDimensions | None = BodyDimensions()  # of the rows as they are
 
     def reset(self) -> None:
         """Forget all frames (a new person)."""
         self._rows.clear()
+        self._estimate = BodyDimensions()
 
     def update(self, joints_m: dict[str, np.ndarray]) -> bool:
         """Add one skeleton frame (joint name → (3,) position, `base`).
@@ -79,39 +89,46 @@ class BodyDimensionEstimator:
         """
         if any(name not in joints_m for name in REQUIRED_JOINTS):
             return False
-        j = {k: np.asarray(v, float) for k, v in joints_m.items()}
+        p = np.array([joints_m[name] for name in REQUIRED_JOINTS], dtype=float)
+        thigh_l, thigh_r, shank_l, shank_r, upper_l, fore_l, upper_r, fore_r, shoulders = (
+            row_norms(p[_SEGMENTS[:, 0]] - p[_SEGMENTS[:, 1]]).tolist())
+        z = p[:, 2].tolist()
+        j = _J
         floor = self.floor_z_m
-        thighs = [_dist(j[f"{s}_hip"], j[f"{s}_knee"]) for s in ("left", "right")]
-        shanks = [_dist(j[f"{s}_knee"], j[f"{s}_foot"]) for s in ("left", "right")]
-        vertical = [
-            (j[f"{s}_hip"][2] - j[f"{s}_knee"][2]) / max(t, 1e-3) for s, t in zip(("left", "right"), thighs)
-        ]
-        arms = sum(
-            _dist(j[f"{s}_shoulder"], j[f"{s}_elbow"]) + _dist(j[f"{s}_elbow"], j[f"{s}_hand"])
-            for s in ("left", "right")
-        )
+        vertical_l = (z[j["left_hip"]] - z[j["left_knee"]]) / max(thigh_l, 1e-3)
+        vertical_r = (z[j["right_hip"]] - z[j["right_knee"]]) / max(thigh_r, 1e-3)
+        # np.mean of a pair, per row (the same sum and division as three np.mean calls).
+        means = np.mean([[thigh_l, thigh_r], [shank_l, shank_r], [vertical_l, vertical_r]], axis=1).tolist()
+        arms = (upper_l + fore_l) + (upper_r + fore_r)
+        shoulder_sum = z[j["left_shoulder"]] + z[j["right_shoulder"]]
         row = np.array(
             [
-                j["head"][2] - floor,
-                float(np.mean(thighs)),
-                float(np.mean(shanks)),
-                0.5 * (j["left_shoulder"][2] + j["right_shoulder"][2]) - floor,
-                _dist(j["left_shoulder"], j["right_shoulder"]) + arms,
-                float(np.mean(vertical)),
-                0.5 * (j["left_shoulder"][2] + j["right_shoulder"][2] - j["left_hip"][2] - j["right_hip"][2]),
+                z[j["head"]] - floor,
+                means[0],
+                means[1],
+                0.5 * shoulder_sum - floor,
+                shoulders + arms,
+                means[2],
+                0.5 * (shoulder_sum - z[j["left_hip"]] - z[j["right_hip"]]),
             ]
         )
         if np.all(np.isfinite(row)):
             self._rows.append(row)
+            self._estimate = None
             return True
         return False
 
     def estimate(self) -> BodyDimensions:
-        """Current estimate (medians over the window)."""
-        if not self._rows:
+        """Current estimate (medians over the window); computed once per change of the window."""
+        if self._estimate is None:
+            self._estimate = self._compute()
+        return self._estimate
+
+    def _compute(self) -> BodyDimensions:
+        if not len(self._rows):
             return BodyDimensions()
-        rows = np.stack(self._rows)
-        m = np.median(rows, axis=0)
+        rows = self._rows.rows()  # oldest first, as np.stack of the frames' rows
+        m = median_rows(rows)
         head_h, thigh, shank, shoulder_h, span_no_hands, vertical, trunk = (float(v) for v in m)
         # Joint noise lengthens a segment on average by about var(length)/length (the
         # perpendicular noise adds in quadrature); each column is the mean of two sides,

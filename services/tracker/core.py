@@ -28,6 +28,7 @@ from robot_sim.kinect.shapes import Capsule
 from services.tracker.body import BodyDimensionEstimator, BodyDimensions
 from services.tracker.config import TrackerConfig
 from services.tracker.corrections import ProximityFilter, lag_correct, robot_point_mask
+from services.tracker.lean import RowWindow, median_rows, vector_norm
 from services.tracker.objects import ObjectDetection, detect_object
 from services.tracker.pointcloud import DepthFrame, box_points
 
@@ -55,8 +56,11 @@ class SkeletonFrame:
 
 
 def skeleton_frame_from_message(msg: Skeleton, t_s: float) -> SkeletonFrame:
-    """Convert a decoded `Skeleton` message received at `t_s`."""
-    joints: dict[str, np.ndarray] = {j.name: np.asarray(j.position_m, float) for j in msg.joints}
+    """Convert a decoded `Skeleton` message received at `t_s`; the joints are read-only rows
+    (3,) of one array (m, `base`)."""
+    positions = np.array([j.position_m for j in msg.joints], dtype=float).reshape(-1, 3)
+    positions.flags.writeable = False
+    joints: dict[str, np.ndarray] = dict(zip([j.name for j in msg.joints], positions))
     return SkeletonFrame(tracked=bool(msg.tracked) and bool(joints), joints_m=joints, t_s=t_s)
 
 
@@ -114,7 +118,7 @@ class TrackerPipeline:
         self._raw_history: deque[tuple[float, np.ndarray]] = deque(maxlen=64)
         #: Recent torso joints: the reported torso is their median (Kinect joints jitter by
         #: 5–10 cm; a standing receiver's torso should not look like a receiver who moved).
-        self._torso_history: deque[np.ndarray] = deque(maxlen=TORSO_MEDIAN_FRAMES)
+        self._torso_history = RowWindow(TORSO_MEDIAN_FRAMES, 3)
 
     # ------------------------------------------------------------------ inputs
     def on_joint_state(self, q_rad: np.ndarray, t_s: float) -> None:
@@ -202,9 +206,7 @@ class TrackerPipeline:
         correction = {(False, False): "none", (True, False): "lag", (False, True): "proximity_hold",
                       (True, True): "lag+proximity_hold"}[(lag_acted, held)]
         self.body.update(frame.joints_m)
-        if "torso" in frame.joints_m:
-            self._torso_history.append(np.asarray(frame.joints_m["torso"], float))
-        torso = np.median(np.array(self._torso_history), axis=0) if self._torso_history else np.zeros(3)
+        torso = self._torso_m(frame)
         return HumanEstimate(
             tracked=True,
             hand_m=np.asarray(hand, float),
@@ -216,6 +218,12 @@ class TrackerPipeline:
             status="; ".join(notes),
         )
 
+    def _torso_m(self, frame: SkeletonFrame) -> np.ndarray:
+        """The torso to report (3,), `base`: the median of the recent torso joints."""
+        if "torso" in frame.joints_m:
+            self._torso_history.append(np.asarray(frame.joints_m["torso"], float))
+        return median_rows(self._torso_history.rows()) if len(self._torso_history) else np.zeros(3)
+
     def _raw_speed(self, now: float, raw: np.ndarray) -> float:
         """Speed (m/s) of the raw hand estimate over the last `lag_speed_window_s`."""
         hist = self._raw_history
@@ -225,7 +233,7 @@ class TrackerPipeline:
         t0, p0 = hist[0]
         if now - t0 < 0.5 * self.config.lag_speed_window_s:
             return 0.0
-        return float(np.linalg.norm(raw - p0) / (now - t0))
+        return vector_norm(raw - p0) / (now - t0)
 
     def _lose(self) -> None:
         self._raw_history.clear()

@@ -22,6 +22,7 @@ from typing import Literal
 import numpy as np
 
 from robot_sim.kinect.shapes import Capsule
+from services.tracker.lean import vector_norm
 
 
 def points_in_box(points_m: np.ndarray, centre_m: np.ndarray, half_size_m: float) -> np.ndarray:
@@ -163,7 +164,7 @@ class ProximityFilter:
             (output hand position (3,), engaged on this frame).
         """
         estimate = np.asarray(estimate_m, float)
-        distance = np.inf if robot_hand_m is None else float(np.linalg.norm(np.asarray(robot_hand_m, float) - estimate))
+        distance = np.inf if robot_hand_m is None else vector_norm(np.asarray(robot_hand_m, float) - estimate)
         if self.engaged and distance > self.release_m:
             self.engaged = False
         elif not self.engaged and distance < self.engage_m:

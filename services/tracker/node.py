@@ -25,6 +25,7 @@ from services.tracker.config import TrackerConfig
 from services.tracker.core import HumanEstimate, TrackerPipeline, skeleton_frame_from_message
 from services.tracker.objects import ObjectDetection
 from services.tracker.pointcloud import depth_frame_from_message
+from services.tracker.process import tune_process
 from services.tracker.replay import ReplayItem, read_replay
 
 log = logging.getLogger("tracker")
@@ -94,6 +95,7 @@ class _Feeder:
 def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None = None,
              replay_loop: bool = False) -> int:
     """Run the tracker until shutdown (or the end of the replay file)."""
+    log.info("process: %s", tune_process())
     arm = ArmGeometry()
     pipe = TrackerPipeline(config, arm)
     feeder = _Feeder(pipe)

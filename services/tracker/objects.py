@@ -23,10 +23,18 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from services.tracker.pointcloud import DepthFrame, backproject_pixels, base_z
+from services.tracker.lean import histogram_mode, percentiles
+from services.tracker.pointcloud import DepthFrame, backproject_pixels, backproject_pixels_xy, base_z
 
 HEIGHT_BIN_M = 0.01
 PLANE_INLIER_M = 0.015
+#: Pixels kept around the inliers when closing the table mask (5x5 closing: a dilation then an
+#: erosion, 2 px each): with 4 the closing of the crop is the closing of the whole image.
+CLOSE_MARGIN_PX = 4
+#: Pixels kept around the object candidates when opening and labelling them (3x3 opening).
+BLOB_MARGIN_PX = 2
+_CLOSE_KERNEL = np.ones((5, 5), np.uint8)
+_OPEN_KERNEL = np.ones((3, 3), np.uint8)
 
 
 @dataclass(frozen=True)
@@ -73,41 +81,69 @@ def fit_table_plane(frame: DepthFrame, floor_z_m: float, min_pixels: int = 500) 
     Returns:
         (plane or None, inlier mask (H, W) bool).
     """
-    shape = frame.depth_m.shape
-    z = base_z(frame)
-    cand = np.isfinite(frame.depth_m) & (z > floor_z_m + 0.3)
-    idx = np.flatnonzero(cand)
+    return _fit_table_plane(frame, base_z(frame), np.isfinite(frame.depth_m), floor_z_m, min_pixels)
+
+
+def _fit_table_plane(frame: DepthFrame, z: np.ndarray, finite: np.ndarray, floor_z_m: float,
+                     min_pixels: int) -> tuple[TablePlane | None, np.ndarray]:
+    """`fit_table_plane` with the pixels' heights z (H, W) (m, `base`, `base_z(frame)`) and
+    `finite` (H, W) (`isfinite(frame.depth_m)`) given."""
+    idx = np.flatnonzero(finite & (z > floor_z_m + 0.3))
     zc = z.ravel()[idx]
     if zc.size < min_pixels:
-        return None, np.zeros(shape, dtype=bool)
+        return None, np.zeros(z.shape, dtype=bool)
     lo = float(np.min(zc))
     bins = max(1, int(np.ceil((float(np.max(zc)) - lo) / HEIGHT_BIN_M)) + 1)
-    counts, edges = np.histogram(zc, bins=bins, range=(lo, lo + bins * HEIGHT_BIN_M))
-    k = int(np.argmax(counts))
+    k, edges = histogram_mode(zc, bins, lo, lo + bins * HEIGHT_BIN_M)
     z0 = 0.5 * (edges[k] + edges[k + 1])
-    cand_pts = backproject_pixels(frame, idx)
+    x, y = backproject_pixels_xy(frame, idx)  # the candidates' z is zc
     near = np.flatnonzero(np.abs(zc - z0) < PLANE_INLIER_M)
-    x, y, zn = np.take(cand_pts.T, near, axis=1)  # component rows: fast to gather
-    if len(zn) < min_pixels:
-        return None, np.zeros(shape, dtype=bool)
-    design = np.column_stack([x, y, np.ones(len(zn))])
-    (a, b, c), *_ = np.linalg.lstsq(design.astype(float), zn.astype(float), rcond=None)
-    plane = TablePlane(float(a), float(b), float(c), int(len(zn)))
-    inliers = np.zeros(cand.size, dtype=bool)
-    inliers[idx[np.abs(plane.height_above(cand_pts)) < PLANE_INLIER_M]] = True
-    return plane, inliers.reshape(shape)
+    if len(near) < min_pixels:
+        return None, np.zeros(z.shape, dtype=bool)
+    design = np.empty((len(near), 3))  # float64 (x, y, 1) rows, as column_stack gave them
+    design[:, 0] = x[near]
+    design[:, 1] = y[near]
+    design[:, 2] = 1.0
+    (a, b, c), *_ = np.linalg.lstsq(design, zc[near].astype(float), rcond=None)
+    plane = TablePlane(float(a), float(b), float(c), int(len(near)))
+    inliers = np.zeros(z.size, dtype=bool)
+    inliers[idx[np.abs(zc - (plane.a * x + plane.b * y + plane.c)) < PLANE_INLIER_M]] = True  # height_above
+    return plane, inliers.reshape(z.shape)
+
+
+def _bounds(rows: np.ndarray, cols: np.ndarray, margin: int, shape: tuple[int, ...],
+            even: bool = False) -> tuple[int, int, int, int]:
+    """(r0, r1, c0, c1): the pixels' bounding box grown by `margin`, inside the image; with
+    `even`, r0 and c0 even (OpenCV labels 2x2 blocks: the same grid keeps the label order)."""
+    r0, c0 = max(0, int(rows.min()) - margin), max(0, int(cols.min()) - margin)
+    if even:
+        r0, c0 = r0 & ~1, c0 & ~1
+    return r0, min(shape[0], int(rows.max()) + margin + 1), c0, min(shape[1], int(cols.max()) + margin + 1)
+
+
+def _region_hull(inliers: np.ndarray) -> np.ndarray | None:
+    """Convex hull (K, 1, 2) (x, y px) of the largest contour of the closed inlier mask, or
+    None; the closing runs on the inliers' box plus `CLOSE_MARGIN_PX` (the same pixels)."""
+    inliers = np.asarray(inliers, dtype=bool)
+    rows, cols = np.flatnonzero(inliers.any(axis=1)), np.flatnonzero(inliers.any(axis=0))
+    if rows.size == 0:
+        return None
+    r0, r1, c0, c1 = _bounds(rows, cols, CLOSE_MARGIN_PX, inliers.shape)
+    crop = np.ascontiguousarray(inliers[r0:r1, c0:c1]).view(np.uint8)  # 0/1: same contours as 0/255
+    closed = cv2.morphologyEx(crop, cv2.MORPH_CLOSE, _CLOSE_KERNEL)
+    contours, _ = cv2.findContours(closed, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE, offset=(c0, r0))
+    if not contours:
+        return None
+    return cv2.convexHull(max(contours, key=cv2.contourArea))
 
 
 def table_region(inliers: np.ndarray) -> np.ndarray:
     """Filled table region (H, W) bool: the convex hull of the largest inlier contour."""
-    mask: np.ndarray = inliers.astype(np.uint8) * 255
-    mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
-    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-    region = np.zeros_like(mask)
-    if contours:
-        biggest = max(contours, key=cv2.contourArea)
-        cv2.fillPoly(region, [cv2.convexHull(biggest)], 255)
-    return region > 0
+    region = np.zeros(inliers.shape, np.uint8)
+    hull = _region_hull(inliers)
+    if hull is not None:
+        cv2.fillPoly(region, [hull], 1)
+    return region.view(bool)
 
 
 def detect_object(
@@ -133,38 +169,56 @@ def detect_object(
         min_pixels: smallest blob taken as an object.
     """
     none = np.zeros(3)
-    plane, inliers = fit_table_plane(frame, floor_z_m)
+    z = base_z(frame)
+    finite = np.isfinite(frame.depth_m)
+    plane, inliers = _fit_table_plane(frame, z, finite, floor_z_m, 500)
     if plane is None:
         return ObjectDetection(False, none, none, None, reason="no table plane in the depth image")
-    region = table_region(inliers)
-    idx = np.flatnonzero(region & np.isfinite(frame.depth_m))
-    height = plane.height_above(backproject_pixels(frame, idx))
+    idx = np.flatnonzero(table_region(inliers) & finite)
+    x, y = backproject_pixels_xy(frame, idx)
+    height = z.ravel()[idx] - (plane.a * x + plane.b * y + plane.c)  # plane.height_above
     idx = idx[(height > min_height_m) & (height < max_height_m)]
     if exclude_points is not None and idx.size:
         idx = idx[~exclude_points(backproject_pixels(frame, idx).astype(float))]
-    cand = np.zeros(region.size, dtype=np.uint8)
-    cand[idx] = 1
-    mask = cv2.morphologyEx(cand.reshape(region.shape), cv2.MORPH_OPEN, np.ones((3, 3), np.uint8))
-    # The blobs' areas counted over the few foreground pixels (OpenCV's statistics scan the
-    # whole image and cost several times the labelling).
-    n, labels = cv2.connectedComponents(mask, connectivity=8)
-    if n <= 1:
+    blob = _largest_blob(idx, z.shape) if idx.size else idx
+    if blob.size == 0:
         return ObjectDetection(False, none, none, plane, reason="nothing stands on the table")
-    foreground = idx[mask.ravel()[idx] > 0]  # an opening keeps a subset of the candidates
-    blob_of = labels.ravel()[foreground]
-    areas = np.bincount(blob_of, minlength=n)[1:]
-    best = int(np.argmax(areas)) + 1
-    if areas[best - 1] < min_pixels:
+    if blob.size < min_pixels:  # the largest blob's area
         return ObjectDetection(False, none, none, plane,
-                               reason=f"largest blob has {int(areas.max())} px < {min_pixels}")
-    blob = foreground[blob_of == best]
+                               reason=f"largest blob has {int(blob.size)} px < {min_pixels}")
     blob_pts = backproject_pixels(frame, blob)
     pts = blob_pts.astype(float)
     hts = plane.height_above(blob_pts).astype(float)
-    lo, hi = np.percentile(pts[:, :2], [2, 98], axis=0)
-    top = float(np.percentile(hts, 98))
+    lo, hi = percentiles(pts[:, :2], [2, 98])
+    top = float(percentiles(hts[:, None], [98])[0, 0])
     centre_xy = 0.5 * (lo + hi)
     table_z = plane.a * centre_xy[0] + plane.b * centre_xy[1] + plane.c
     position = np.array([centre_xy[0], centre_xy[1], table_z + top / 2.0])
     size = np.array([hi[0] - lo[0], hi[1] - lo[1], top])
     return ObjectDetection(True, position, size, plane, pixels=int(blob.size))
+
+
+def _largest_blob(idx: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """Row-major indices of the largest 8-connected blob (the first in OpenCV's label order
+    among equals) of the candidate pixels `idx` (sorted, non-empty) after a 3x3 opening;
+    empty when the opening leaves nothing.
+
+    The opening and the labelling run on the candidates' box plus `BLOB_MARGIN_PX`, its
+    corner on even pixels, which gives the whole image's opening and labels there; the blobs'
+    areas are counted over the foreground pixels (OpenCV's statistics scan the whole image).
+    """
+    rows, cols = np.divmod(idx, shape[1])
+    r0, r1, c0, c1 = _bounds(rows, cols, BLOB_MARGIN_PX, shape, even=True)
+    cand = np.zeros((r1 - r0, c1 - c0), dtype=np.uint8)
+    rows -= r0
+    cols -= c0
+    cand[rows, cols] = 1
+    mask = cv2.morphologyEx(cand, cv2.MORPH_OPEN, _OPEN_KERNEL)
+    n, labels = cv2.connectedComponents(mask, connectivity=8)
+    if n <= 1:
+        return idx[:0]
+    kept = mask[rows, cols] > 0  # an opening keeps a subset of the candidates
+    blob_of = labels[rows[kept], cols[kept]]
+    areas = np.bincount(blob_of, minlength=n)[1:]
+    best = int(np.argmax(areas)) + 1
+    return idx[kept][blob_of == best]

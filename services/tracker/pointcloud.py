@@ -136,11 +136,28 @@ def backproject_pixels(frame: DepthFrame, flat_index: np.ndarray) -> np.ndarray:
     return points.T
 
 
+def backproject_pixels_xy(frame: DepthFrame, flat_index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """x and y (N,) float32 in `base` (m) of the pixels with row-major indices `flat_index`
+    (N,): the first two columns of `backproject_pixels(frame, flat_index)` (the same float32
+    products and sums), for callers that have the heights already (`base_z`)."""
+    z = frame.depth_m.astype(np.float32, copy=False).ravel()[flat_index]
+    rays = camera_rays(frame).reshape(3, -1)
+    position = frame.camera_position_m.astype(np.float32)
+    x = np.take(rays[0], flat_index)
+    x *= z
+    x += position[0]
+    y = np.take(rays[1], flat_index)
+    y *= z
+    y += position[1]
+    return x, y
+
+
 def base_z(frame: DepthFrame) -> np.ndarray:
     """Height (H, W) float32 in `base` (m) of every pixel's point, NaN where no reading; equal
     to `backproject(frame)[0][..., 2]` at a third of its cost."""
-    z = frame.depth_m.astype(np.float32, copy=False)
-    return z * camera_rays(frame)[2] + frame.camera_position_m.astype(np.float32)[2]
+    z = np.multiply(frame.depth_m.astype(np.float32, copy=False), camera_rays(frame)[2])
+    z += frame.camera_position_m.astype(np.float32)[2]
+    return z
 
 
 def box_pixel_window(frame: DepthFrame, centre_m: np.ndarray, half_size_m: float) -> tuple[slice, slice]:

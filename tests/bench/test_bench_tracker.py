@@ -6,8 +6,10 @@ frames in the same run, frame by frame alternately:
 
 - new: only the pixels needed are back-projected (the hand's box window, the pixels above
   the floor for the table plane, the table region for the object);
-- baseline: `tests.unit.tracker.whole_cloud_reference.ReferencePipeline`, the code before
-  (the whole depth image back-projected per frame, the box and object searched in it).
+- baseline: `tests.unit.tracker.per_frame_reference.HeadPipeline`, the code before both CPU
+  rounds (the whole depth image back-projected per frame, the box and object searched in it;
+  the body window stacked and reduced with numpy's generic routines on every frame, one
+  `np.linalg.norm` call per segment, one array per joint of a message).
 
 Frame sets: two reaching episodes (`run_episode`, 240 frames) and the idle scene (the
 receiver standing, the arm at home, 90 frames, as `handover-up --job none` shows it).
@@ -31,7 +33,7 @@ from services.tracker.core import TrackerPipeline, skeleton_frame_from_message
 from services.tracker.episodes import run_episode
 from services.tracker.pointcloud import depth_frame_from_message
 from tests.bench._report import save, summarize, table
-from tests.unit.tracker.whole_cloud_reference import ReferencePipeline
+from tests.unit.tracker.per_frame_reference import HeadPipeline, reference_skeleton_frame_from_message
 
 pytestmark = pytest.mark.bench
 FRAME_BUDGET_MS = 1000.0 / 30.0
@@ -58,12 +60,16 @@ def _idle_frames(arm: ArmGeometry, n: int = 90) -> list[Frame]:
     return out
 
 
+def _to_skeleton(pipe: TrackerPipeline):
+    return reference_skeleton_frame_from_message if isinstance(pipe, HeadPipeline) else skeleton_frame_from_message
+
+
 def _frame_ms(pipe: TrackerPipeline, f: Frame, detect: str) -> float:
     """One frame's processing time (ms); `detect`: "due" (every 3rd depth frame), "never"."""
     t0 = time.perf_counter()
     pipe.on_joint_state(np.asarray(f.joint_state.position_rad), f.t_s)
     pipe.on_depth(depth_frame_from_message(f.depth, f.t_s))
-    pipe.on_skeleton(skeleton_frame_from_message(f.skeleton, f.t_s))
+    pipe.on_skeleton(_to_skeleton(pipe)(f.skeleton, f.t_s))
     if detect == "due":
         pipe.detect_object()
     return (time.perf_counter() - t0) * 1e3
@@ -72,7 +78,7 @@ def _frame_ms(pipe: TrackerPipeline, f: Frame, detect: str) -> float:
 def _detect_ms(pipe: TrackerPipeline, f: Frame) -> float:
     pipe.on_joint_state(np.asarray(f.joint_state.position_rad), f.t_s)
     pipe.on_depth(depth_frame_from_message(f.depth, f.t_s))
-    pipe.on_skeleton(skeleton_frame_from_message(f.skeleton, f.t_s))
+    pipe.on_skeleton(_to_skeleton(pipe)(f.skeleton, f.t_s))
     t0 = time.perf_counter()
     pipe.detect_object(force=True)
     return (time.perf_counter() - t0) * 1e3
@@ -80,7 +86,7 @@ def _detect_ms(pipe: TrackerPipeline, f: Frame) -> float:
 
 def _compare(frames: list[Frame], cfg: TrackerConfig, arm: ArmGeometry, what: str) -> tuple[list[float], list[float]]:
     """(new, baseline) samples (ms), the two pipelines run alternately frame by frame."""
-    new, ref = TrackerPipeline(cfg, arm), ReferencePipeline(cfg, arm)
+    new, ref = TrackerPipeline(cfg, arm), HeadPipeline(cfg, arm)
     samples: tuple[list[float], list[float]] = ([], [])
     for k, f in enumerate(frames):
         order = ((0, new), (1, ref)) if k % 2 == 0 else ((1, ref), (0, new))

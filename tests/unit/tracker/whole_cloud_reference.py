@@ -1,7 +1,8 @@
 """Reference: the tracker's whole-cloud computations as they were before the lean rewrite.
 
 Every depth frame was back-projected whole (rays built per frame), the hand's box searched
-over the whole cloud, and the object found on the whole cloud. The lean code
+over the whole cloud, and the object found on the whole cloud (the table mask closed, the
+blobs opened and labelled over the whole image, numpy's histogram and percentiles). The lean code
 (`services.tracker.pointcloud`, `objects`, `core`) must give the same results; the
 equivalence tests and `tests/bench/test_bench_tracker.py` compare against these.
 """
@@ -16,7 +17,7 @@ import numpy as np
 from robot_sim.kinect.shapes import Capsule
 from services.tracker.core import TrackerPipeline
 from services.tracker.corrections import points_in_box, robot_point_mask
-from services.tracker.objects import HEIGHT_BIN_M, PLANE_INLIER_M, ObjectDetection, TablePlane, table_region
+from services.tracker.objects import HEIGHT_BIN_M, PLANE_INLIER_M, ObjectDetection, TablePlane
 from services.tracker.pointcloud import DepthFrame
 
 
@@ -70,6 +71,19 @@ def reference_fit_table_plane(
     return plane, inliers
 
 
+def reference_table_region(inliers: np.ndarray) -> np.ndarray:
+    """Filled table region (H, W) bool: the convex hull of the largest contour of the inlier
+    mask closed over the whole image."""
+    mask: np.ndarray = inliers.astype(np.uint8) * 255
+    mask = cv2.morphologyEx(mask, cv2.MORPH_CLOSE, np.ones((5, 5), np.uint8))
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    region = np.zeros_like(mask)
+    if contours:
+        biggest = max(contours, key=cv2.contourArea)
+        cv2.fillPoly(region, [cv2.convexHull(biggest)], 255)
+    return region > 0
+
+
 def reference_detect_object(
     frame: DepthFrame,
     floor_z_m: float,
@@ -84,7 +98,7 @@ def reference_detect_object(
     plane, inliers = reference_fit_table_plane(points_m, valid, floor_z_m)
     if plane is None:
         return ObjectDetection(False, none, none, None, reason="no table plane in the depth image")
-    region = table_region(inliers)
+    region = reference_table_region(inliers)
     height = np.where(valid, plane.height_above(points_m), np.nan)
     with np.errstate(invalid="ignore"):
         cand = region & valid & (height > min_height_m) & (height < max_height_m)
