@@ -43,7 +43,7 @@ import numpy as np
 
 from robot_sim import scene
 from robot_sim.contact.config import ContactSimError, ObjectParams, SimConfig
-from robot_sim.contact.plant import ContactPlant, Observation
+from robot_sim.contact.plant import ContactPlant
 from robot_sim.contact.receiver import absent, behaviour_by_name, min_jerk
 from robot_sim.kinect.receiver import BodySize, ReceiverBody
 
@@ -141,7 +141,11 @@ class SceneOutput:
 
 
 class HandoverScene:
-    """The simulated scene (see the module docstring). Call `step` once per control tick."""
+    """The simulated scene (see the module docstring). Call `step` once per control tick.
+
+    `plant_type` is the contact plant the pick creates (a test may give a subclass)."""
+
+    plant_type: type[ContactPlant] = ContactPlant
 
     def __init__(self, params: SceneParams) -> None:
         self.params = params
@@ -153,6 +157,8 @@ class HandoverScene:
         except TypeError as exc:
             raise ContactSimError(f"invalid receiver parameters: {exc}") from None
         self.body = ReceiverBody(BodySize(params.height_m, params.posture))
+        self._optical_dt_s = float(self._config.every(self._config.sensors.optical_report_rate_hz) * self._config.dt_s)
+        self._shoulder_key: bytes | None = None  # the hand position `_shoulder_m` is the shoulder for
         self.episode = 0
         self.reset()
 
@@ -166,7 +172,6 @@ class HandoverScene:
         self.hand_m = self.body.rest_hand_m.copy()
         self.plant: ContactPlant | None = None
         self._origin_m: np.ndarray | None = None
-        self._obs: Observation | None = None
         self._reach_start_hand_m = self.hand_m.copy()
         self._reach_elapsed_s = 0.0
         self.episode += 1
@@ -203,29 +208,29 @@ class HandoverScene:
         if self.object_phase == "on_table":
             near = np.linalg.norm(tool_m - self.object_m) <= p.grasp_tolerance_m
             if near and tool_speed_m_s <= p.tool_rest_speed_m_s and grip_command_n >= p.grasp_min_force_n:
-                self.plant = ContactPlant(self._config, absent(p.object_mass_kg * 9.81), seed=p.seed,
+                self.plant = self.plant_type(self._config, absent(p.object_mass_kg * 9.81), seed=p.seed,
                                           initial_grip_force_n=grip_command_n)
                 self.object_phase = "in_gripper"
         if self.plant is not None:
-            self._obs = self.plant.advance_real_time(dt_s, grip_command_n)
+            self.plant.run_real_time(dt_s, grip_command_n)  # the state is read from the plant
             self._update_from_plant(tool_m)
         self._update_receiver(dt_s, tool_m, tool_speed_m_s)
         return self._output()
 
     def _update_from_plant(self, tool_m: np.ndarray) -> None:
-        obs = self._obs
-        assert obs is not None
-        in_pads = not bool(obs.left_pads)
+        plant = self.plant
+        assert plant is not None
+        in_pads = not bool(plant.left)
         if in_pads or self._origin_m is None:
             self._origin_m = tool_m.copy()
         origin = self._origin_m
-        self.object_m = origin + np.array([float(obs.object_position_x_m), 0.0, -float(obs.object_position_y_m)])
-        self.object_velocity_m_s = np.array([float(obs.object_velocity_x_m_s), 0.0, -float(obs.object_velocity_y_m_s)])
+        self.object_m = origin + np.array([float(plant.px), 0.0, -float(plant.py)])
+        self.object_velocity_m_s = np.array([float(plant.vx), 0.0, -float(plant.vy)])
         if self.receiver_phase == "contact":
-            self.hand_m = origin + np.array([float(obs.hand_position_x_m), 0.0, -float(obs.hand_position_y_m)])
-        if bool(obs.dropped):
+            self.hand_m = origin + np.array([float(plant.hx), 0.0, -float(plant.hy)])
+        if bool(plant.dropped):
             self.object_phase = "dropped"
-        elif not in_pads and bool(obs.receiver_holds):
+        elif not in_pads and bool(plant.holds):
             self.object_phase = "with_receiver"
         elif in_pads:
             self.object_phase = "in_gripper"
@@ -235,11 +240,15 @@ class HandoverScene:
         if p.behaviour == "absent" or self.receiver_phase == "contact" or self.object_phase != "in_gripper":
             return
         if self.receiver_phase == "resting":
-            lifted = self.object_m[2] >= p.object_start_base_m[2] + p.lift_clearance_m
-            shoulder = self.receiving_shoulder_m
+            if not (self.object_m[2] >= p.object_start_base_m[2] + p.lift_clearance_m):
+                return  # not lifted yet
+            key = self.hand_m.tobytes()
+            if key != self._shoulder_key:  # the body's shoulder moves only with its hand (leaning)
+                self._shoulder_key, self._shoulder_m = key, self.receiving_shoulder_m
+            shoulder = self._shoulder_m
             presented = abs(float(self.object_m[1] - shoulder[1])) <= p.presentation_half_width_m
             near = float(np.linalg.norm(self.object_m - shoulder)) <= self.body.reach_m + p.reach_trigger_margin_m
-            if lifted and presented and near:
+            if presented and near:
                 self.receiver_phase = "reaching"
                 self._reach_start_hand_m = self.hand_m.copy()
                 self._reach_elapsed_s = 0.0
@@ -257,9 +266,9 @@ class HandoverScene:
 
     # ------------------------------------------------------------------ outputs
     def _output(self) -> SceneOutput:
-        obs = self._obs
+        plant = self.plant
         holder = {"on_table": "table", "dropped": "none"}.get(self.object_phase)
-        if obs is None:  # on the table, nothing in the gripper
+        if plant is None:  # on the table, nothing in the gripper
             return SceneOutput(
                 wrist_force_n=(0.0, 0.0), optical_counts=(0.0, 0.0),
                 optical_counts_per_m=float(self._config.sensors.optical_counts_per_m), optical_dt_s=1e-3,
@@ -269,20 +278,22 @@ class HandoverScene:
                 dropped=False, slip_m=0.0, grip_force_n=0.0, receiver_hand_m=self.hand_m.copy(),
                 receiver_pull_n=0.0,
             )
-        in_pads = not bool(obs.left_pads) and float(obs.grip_force_n) > 0.0
-        receiver = bool(obs.receiver_holds)
+        # The plant's sensors and truth as its `observation()` reports them (none built here).
+        ft, opt = plant.ft, plant.optical
+        in_pads = not bool(plant.left) and float(plant.grip_force_n) > 0.0
+        receiver = bool(plant.holds)
         if holder is None:
             holder = "both" if in_pads and receiver else "gripper" if in_pads else "receiver" if receiver else "none"
         return SceneOutput(
-            wrist_force_n=(float(obs.wrist_force_x_n), float(obs.wrist_force_y_n)),
-            optical_counts=(float(obs.optical_counts_x), float(obs.optical_counts_y)),
-            optical_counts_per_m=float(obs.optical_counts_per_m), optical_dt_s=float(obs.optical_dt_s),
-            optical_valid=bool(obs.optical_valid),
-            slip_velocity_m_s=(float(obs.slip_velocity_x_m_s), float(obs.slip_velocity_y_m_s)),
-            accel_y_m_s2=float(obs.accel_y_m_s2),
+            wrist_force_n=(float(ft.force_x_n), float(ft.force_y_n)),
+            optical_counts=(float(opt.counts_x), float(opt.counts_y)),
+            optical_counts_per_m=float(self._config.sensors.optical_counts_per_m), optical_dt_s=self._optical_dt_s,
+            optical_valid=bool(opt.valid),
+            slip_velocity_m_s=(float(opt.velocity_x_m_s), float(opt.velocity_y_m_s)),
+            accel_y_m_s2=float(opt.accel_y_m_s2),
             object_phase=self.object_phase, receiver_phase=self.receiver_phase,
             object_position_m=self.object_m.copy(), object_velocity_m_s=self.object_velocity_m_s.copy(),
-            held_by=holder, dropped=bool(obs.dropped), slip_m=float(obs.object_position_y_m),
-            grip_force_n=max(0.0, float(obs.grip_force_n)), receiver_hand_m=self.hand_m.copy(),
-            receiver_pull_n=float(obs.pull_force_x_n),
+            held_by=holder, dropped=bool(plant.dropped), slip_m=float(plant.py),
+            grip_force_n=max(0.0, float(plant.grip_force_n)), receiver_hand_m=self.hand_m.copy(),
+            receiver_pull_n=float(plant.pull_x),
         )

@@ -25,89 +25,36 @@ Per plant step dt (semi-implicit Euler, one friction solve per step):
 5. The wrist sensor's true load is minus the pads' friction force; the mode is GRASP
    (stuck), SLIP (pads press, object slides) or RELEASE (pads exert no force).
 
-The same code runs one episode on Python floats (fast per step, for the real-time bridge
-and for plots) or n episodes on numpy arrays (batch), chosen by the receiver parameters:
-floats → one episode, stacked arrays → a batch.
+The same equations (`generic_step`) run n episodes on numpy arrays (batch) or one on Python
+floats, chosen by the receiver parameters: floats → one episode, stacked arrays → a batch.
+One episode steps with the same operations inline (`scalar_step`, fast per step, for the
+real-time bridge and for plots) and skips the physics of steps that change nothing (`rest`);
+both give the generic step's results bit for bit.
 """
 
 from __future__ import annotations
 
 import math
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from robot_sim.contact.actuator import GripperActuator
 from robot_sim.contact.backend import NoiseSource, NumpyBackend, ScalarBackend
 from robot_sim.contact.config import ContactSimError, SimConfig
+from robot_sim.contact.generic_step import step_generic
 from robot_sim.contact.interfaces import Mode, SensorSample
-from robot_sim.contact.outcome import EpisodeTrace
+from robot_sim.contact.observation import Observation
 from robot_sim.contact.receiver import Coupling, ReceiverParams, reference
+from robot_sim.contact.rest import Rest, advance_scalar, reference_settled, shared_repeats
+from robot_sim.contact.scalar_step import run_steps
 from robot_sim.contact.sensors import OpticalMotionSensor, WristForceSensor
+from robot_sim.contact.trace import TraceRecorder
 
 __all__ = ["ContactPlant", "Observation", "TraceRecorder"]
 
-_TINY = 1e-12
-_REF_CHUNK = 4096  # reference samples precomputed at once for one episode
+_REF_CHUNK = 512  # reference samples precomputed at once for one episode (≈ 0.2 ms of work per block)
 _REF_BLOCK = 128  # reference rows (time steps) precomputed at once for a batch
 _GRASP, _SLIP, _RELEASE = int(Mode.GRASP), int(Mode.SLIP), int(Mode.RELEASE)
-
-
-@dataclass(frozen=True)
-class Observation:
-    """Everything one plant step produces, for one episode (floats) or a batch (arrays).
-
-    Sensors (what a real robot would have), gripper frame x toward receiver, y down:
-        time_s; wrist_force_x_n, wrist_force_y_n (F/T, with noise and bias; held between
-        samples); ft_fresh (a new F/T sample was taken in the last advance);
-        optical_counts_x, optical_counts_y (last register read, counts);
-        optical_counts_per_m; optical_dt_s (report period); optical_valid;
-        slip_velocity_x_m_s, slip_velocity_y_m_s, accel_y_m_s2 (estimates);
-        optical_fresh; gripper_finger_m (finger position − contact position x0, m);
-        grip_force_estimate_n (spring force from the finger position, N).
-    Ground truth (never for control):
-        mode (Mode value); grip_force_n (force the pads really apply); object_position_x_m,
-        object_position_y_m (displacement from the start, m); object_velocity_x_m_s,
-        object_velocity_y_m_s; object_accel_x_m_s2, object_accel_y_m_s2; hand_position_x_m,
-        hand_position_y_m (receiver hand, same frame); pull_force_x_n, pull_force_y_n
-        (receiver's force on the object); true_wrist_force_x_n, true_wrist_force_y_n;
-        receiver_grasp (0..1); receiver_holds; left_pads; dropped.
-    """
-
-    time_s: float
-    wrist_force_x_n: object
-    wrist_force_y_n: object
-    ft_fresh: bool
-    optical_counts_x: object
-    optical_counts_y: object
-    optical_counts_per_m: float
-    optical_dt_s: float
-    optical_valid: object
-    slip_velocity_x_m_s: object
-    slip_velocity_y_m_s: object
-    accel_y_m_s2: object
-    optical_fresh: bool
-    gripper_finger_m: object
-    grip_force_estimate_n: object
-    mode: object
-    grip_force_n: object
-    object_position_x_m: object
-    object_position_y_m: object
-    object_velocity_x_m_s: object
-    object_velocity_y_m_s: object
-    object_accel_x_m_s2: object
-    object_accel_y_m_s2: object
-    hand_position_x_m: object
-    hand_position_y_m: object
-    pull_force_x_n: object
-    pull_force_y_n: object
-    true_wrist_force_x_n: object
-    true_wrist_force_y_n: object
-    receiver_grasp: object
-    receiver_holds: object
-    left_pads: object
-    dropped: object
 
 
 class ContactPlant:
@@ -184,8 +131,7 @@ class ContactPlant:
         self.wrist_y = xp.where(self.stuck, w, o.mu_kinetic * fg0) + z
         self.grasp, self.holds = z, xp.full(self.n, False)
         self.ft.sample(self.wrist_x, self.wrist_y)
-        self.ft_fresh = True
-        self.optical_fresh = True
+        self.ft_fresh = self.optical_fresh = True
 
     def _set_receiver_constants(self, p: ReceiverParams) -> None:
         self.receiver = p
@@ -201,8 +147,10 @@ class ContactPlant:
             self._c_along = int(p.coupling) == Coupling.ALONG_PULL
             self._c_contact = int(p.coupling) == Coupling.CONTACT
             self._strength = float(p.grasp_strength_n)
-        self._ref_cache = []
+        self._ref_cache: list[tuple] = []
         self._ref_base = 0
+        self._ref_settled: tuple[int, tuple] | None = None  # (from step, the sample): constant from then on
+        self._rest: Rest | None = None  # a proven fixed point of the scalar step (robot_sim.contact.rest)
 
     def replace_receiver(self, receiver: ReceiverParams) -> None:
         """Swap the receiver behaviour mid-run (one episode only), e.g. when the receiver's
@@ -226,6 +174,9 @@ class ContactPlant:
         """Receiver reference at step k, computed ahead in blocks (vectorised over time)."""
         i = k - self._ref_base
         if i < 0 or i >= len(self._ref_cache):
+            if self._ref_settled is not None and k >= self._ref_settled[0]:
+                return self._ref_settled[1]
+            follows = self._ref_cache[-1:] if i == len(self._ref_cache) else []
             self._ref_base = k
             i = 0
             if self.vectorised:
@@ -234,133 +185,74 @@ class ContactPlant:
                 self._ref_cache = [tuple(c[j] for c in cols) for j in range(_REF_BLOCK)]
             else:
                 t = (k + np.arange(_REF_CHUNK)) * self.dt_s
-                cols = np.broadcast_arrays(*reference(t, self.receiver))
-                self._ref_cache = list(zip(*[c.tolist() for c in cols]))
+                self._ref_cache = shared_repeats(np.broadcast_arrays(*reference(t, self.receiver)), follows)
+                if reference_settled(self.receiver, t[-1]):
+                    self._ref_settled = (k + _REF_CHUNK, self._ref_cache[-1])
         return self._ref_cache[i]
 
     # ------------------------------------------------------------------ stepping
     def step(self, grip_command_n) -> None:
         """Advance one plant step of `dt_s` with the given grip-force command (N)."""
-        xp = self.xp
-        where, maximum, hypot = xp.where, xp.maximum, xp.hypot
-        (dt, m, w, mu_s, mu_k, kc, cc, kh, dh, mh, ext_x, ext_y, face_x, face_y,
-         max_gap, drop_m, hold_level, k_spring) = self._constants
-        k = self.step_index
-        act = self.actuator
+        self._rest = None
+        if not self.vectorised and type(grip_command_n) is float:
+            run_steps(self, grip_command_n, 1)
+        else:
+            step_generic(self, grip_command_n)
 
-        if k % self._gripper_every == 0:
-            cmd = grip_command_n
-            if self._grip_snr is not None:
-                self._grip_ms_sum = self._grip_ms_sum + cmd * cmd
-                self._grip_ms_n += 1
-                std = xp.sqrt(self._grip_ms_sum / (self._grip_ms_n * self._grip_snr))
-                cmd = maximum(cmd + std * self._noise.normal(), 0.0)
-            act.latch(cmd)
-
-        rx, ry, rvx, rvy, g, ffy = self._reference_at(k)
-        px, py, vx, vy = self.px, self.py, self.vx, self.vy
-        hx, hy, hvx, hvy = self.hx, self.hy, self.hvx, self.hvy
-
-        # 1. Hand on object.
-        dx, dy = hx - px, hy - py
-        dvx, dvy = hvx - vx, hvy - vy
-        fx = g * (kc * dx + cc * dvx)
-        fy = g * (kc * dy + cc * dvy)
-        ux, uy = self._ux, self._uy
-        c_full, c_along = self._c_full, self._c_along
-        along = fx * ux + fy * uy
-        pen = dx * ux + dy * uy
-        push = where(pen > 0.0, maximum(kc * pen + cc * (dvx * ux + dvy * uy), 0.0), 0.0)
-        fx = where(c_full, fx, where(c_along, along * ux, push * ux))
-        fy = where(c_full, fy, where(c_along, along * uy, push * uy))
-        cap = where(self._c_contact, self._strength, g * self._strength)
-        mag = hypot(fx, fy)
-        sc = where(mag > cap, cap / maximum(mag, _TINY), 1.0)
-        fx, fy = fx * sc, fy * sc
-
-        # 2.-3. Pads: Coulomb friction with stick/slip.
-        finger = act.finger_m
-        fg_spring = k_spring * maximum(finger, 0.0)
-        left = self.left
-        in_pads = xp.not_(left) & (fg_spring > 0.0)
-        fg = where(in_pads, fg_spring, 0.0)
-        ex, ey = fx, fy + w
-        ptx, pty = m * vx + dt * ex, m * vy + dt * ey
-        pt = hypot(ptx, pty)
-        jk = dt * mu_k * fg
-        can_hold = in_pads & (hypot(ex, ey) <= mu_s * fg)
-        stay = self.stuck & can_hold
-        stops = pt <= jk
-        stuck = stay | (stops & can_hold)
-        keep = where(stay | stops, 0.0, 1.0 - jk / maximum(pt, _TINY))
-        nvx, nvy = ptx * keep / m, pty * keep / m
-        self.wrist_x = (ptx - m * nvx) / dt
-        self.wrist_y = (pty - m * nvy) / dt
-        self.ax, self.ay = (nvx - vx) / dt, (nvy - vy) / dt
-        npx, npy = px + dt * nvx, py + dt * nvy
-        self.mode = where(in_pads, where(stuck, _GRASP, _SLIP), _RELEASE)
-        self.grip_force_n = fg
-        self.stuck = stuck
-        abs_ = xp.abs
-        apx, apy = abs_(npx), abs_(npy)
-        left = left | (apx > ext_x) | (apy > ext_y)
-        self.left = left
-
-        # Hand impedance (reaction of the object on the hand included).
-        hvx = hvx + dt * (kh * (rx - hx) + dh * (rvx - hvx) - fx) / mh
-        hvy = hvy + dt * (kh * (ry - hy) + dh * (rvy - hvy) + ffy - fy) / mh
-        self.hx, self.hy = hx + dt * hvx, hy + dt * hvy
-        self.hvx, self.hvy = hvx, hvy
-
-        self.pull_x, self.pull_y = fx, fy
-        self.grasp = g
-        holds = c_full & (g >= hold_level) & (hypot(dx, dy) < 0.02)
-        self.holds = holds
-        self.dropped = self.dropped | ((npy > drop_m) & xp.not_(holds))
-
-        # Sensors.
-        visible = xp.not_(left) & (apx <= face_x) & (apy <= face_y) & (maximum(-finger, 0.0) <= max_gap)
-        self.optical.accumulate(npx - px, npy - py, hypot(nvx, nvy), visible)
-        self.px, self.py, self.vx, self.vy = npx, npy, nvx, nvy
-        act.move()
-        k += 1
-        self.step_index = k
-        if k % self._ft_every == 0:
-            self.ft.sample(self.wrist_x, self.wrist_y)
-            self.ft_fresh = True
-        if k % self._opt_every == 0:
-            self.optical.report(visible)
-            self.optical_fresh = True
+    def _latch(self, grip_command_n) -> None:
+        """The gripper's position loop takes the command (N), with its noise if configured."""
+        cmd = grip_command_n
+        if self._grip_snr is not None:
+            self._grip_ms_sum = self._grip_ms_sum + cmd * cmd
+            self._grip_ms_n += 1
+            std = self.xp.sqrt(self._grip_ms_sum / (self._grip_ms_n * self._grip_snr))
+            cmd = self.xp.maximum(cmd + std * self._noise.normal(), 0.0)
+        self.actuator.latch(cmd)
 
     def advance_real_time(self, elapsed_s: float, grip_command_n) -> Observation:
         """Real-time use at an irregular rate: run the whole plant steps that `elapsed_s` (s,
         since the last call) completes, carrying the fraction of a step to the next call, so
         the plant's time never runs ahead of the caller's (a short extra tick runs no step
         and returns the current observation)."""
-        if not np.isfinite(elapsed_s) or elapsed_s < 0:
+        self.run_real_time(elapsed_s, grip_command_n)
+        return self.observation()
+
+    def run_real_time(self, elapsed_s: float, grip_command_n) -> None:
+        """`advance_real_time` without building the observation (read the plant's state)."""
+        if not math.isfinite(elapsed_s) or elapsed_s < 0:
             raise ContactSimError(f"elapsed_s must be finite and >= 0, got {elapsed_s}")
         self._carry_s += elapsed_s
         steps = int(math.floor(self._carry_s / self.dt_s + 1e-9))
-        if steps < 1:
-            return self.observation()
-        self._carry_s = max(0.0, self._carry_s - steps * self.dt_s)
-        return self.advance(steps * self.dt_s, grip_command_n)
+        if steps >= 1:
+            self._carry_s = max(0.0, self._carry_s - steps * self.dt_s)
+            self.run(steps * self.dt_s, grip_command_n)
 
     def advance(self, duration_s: float, grip_command_n) -> Observation:
         """Run whole plant steps covering `duration_s` (at least one) with a constant command,
         and return the observation at the end (real-time use: call at your own rate)."""
-        if not np.isfinite(duration_s) or duration_s < 0:
-            raise ContactSimError(f"duration_s must be finite and >= 0, got {duration_s}")
-        cmd = np.asarray(grip_command_n, dtype=float)
-        if not np.all(np.isfinite(cmd)) or np.any(cmd < 0):
-            raise ContactSimError(f"grip_command_n must be finite and >= 0, got {grip_command_n}")
-        if not self.vectorised:
-            grip_command_n = float(cmd)
-        self.ft_fresh = False
-        self.optical_fresh = False
-        for _ in range(max(1, int(round(duration_s / self.dt_s)))):
-            self.step(grip_command_n)
+        self.run(duration_s, grip_command_n)
         return self.observation()
+
+    def run(self, duration_s: float, grip_command_n) -> None:
+        """`advance` without building the observation. A one-episode plant skips the physics
+        of steps that would change nothing (`robot_sim.contact.rest`; same results)."""
+        if not math.isfinite(duration_s) or duration_s < 0:
+            raise ContactSimError(f"duration_s must be finite and >= 0, got {duration_s}")
+        if self.vectorised or type(grip_command_n) is not float:
+            cmd = np.asarray(grip_command_n, dtype=float)
+            if not np.all(np.isfinite(cmd)) or np.any(cmd < 0):
+                raise ContactSimError(f"grip_command_n must be finite and >= 0, got {grip_command_n}")
+            if not self.vectorised:
+                grip_command_n = float(cmd)
+        elif not math.isfinite(grip_command_n) or grip_command_n < 0:
+            raise ContactSimError(f"grip_command_n must be finite and >= 0, got {grip_command_n}")
+        self.ft_fresh = self.optical_fresh = False
+        n = max(1, int(round(duration_s / self.dt_s)))
+        if not self.vectorised:
+            advance_scalar(self, grip_command_n, n)
+            return
+        for _ in range(n):
+            step_generic(self, grip_command_n)
 
     # ------------------------------------------------------------------ outputs
     def sensor_sample(self) -> SensorSample:
@@ -406,36 +298,3 @@ class ContactPlant:
             true_wrist_force_x_n=self.wrist_x, true_wrist_force_y_n=self.wrist_y,
             receiver_grasp=self.grasp, receiver_holds=self.holds, left_pads=self.left, dropped=self.dropped,
         )
-
-
-class TraceRecorder:
-    """Collects one scalar episode's samples into an `EpisodeTrace`."""
-
-    _FIELDS = ("time_s", "mode", "grip_force_n", "pull_force_x_n", "pull_force_y_n",
-               "object_position_x_m", "object_position_y_m", "object_accel_y_m_s2", "receiver_holds",
-               "grip_command_n", "object_velocity_x_m_s", "object_velocity_y_m_s", "object_accel_x_m_s2",
-               "sensed_force_x_n", "sensed_force_y_n", "accel_estimate_y_m_s2", "optical_valid",
-               "hand_position_x_m", "hand_position_y_m", "receiver_grasp")
-
-    def __init__(self):
-        self._rows: list[tuple] = []
-
-    def record(self, plant: ContactPlant, grip_command_n: float) -> None:
-        """Append the plant's current state (one episode only)."""
-        p = plant
-        self._rows.append((p.time_s, p.mode, p.grip_force_n, p.pull_x, p.pull_y, p.px, p.py, p.ay, p.holds,
-                           grip_command_n, p.vx, p.vy, p.ax, p.ft.force_x_n, p.ft.force_y_n,
-                           p.optical.accel_y_m_s2, p.optical.valid, p.hx, p.hy, p.grasp))
-
-    def trace(self, label: str = "") -> EpisodeTrace:
-        """The recorded samples as an `EpisodeTrace`."""
-        cols = list(zip(*self._rows)) if self._rows else [()] * len(self._FIELDS)
-        arrays = {}
-        for name, col in zip(self._FIELDS, cols):
-            if name == "mode":
-                arrays[name] = np.asarray(col, dtype=np.int8)
-            elif name in ("receiver_holds", "optical_valid"):
-                arrays[name] = np.asarray(col, dtype=bool)
-            else:
-                arrays[name] = np.asarray(col, dtype=float)
-        return EpisodeTrace(**arrays, label=label)

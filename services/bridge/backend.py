@@ -37,6 +37,8 @@ def clip_finite(value: float, bound: float) -> float:
     """`value` clipped to [−bound, bound]; a NaN or infinite value becomes 0 (a simulator
     glitch must not reach the bus, whose fields are bounded)."""
     value = float(value)
+    if -bound < value < bound:  # the usual case, in one comparison (NaN fails it)
+        return value
     if not math.isfinite(value):
         return 0.0
     return max(-bound, min(bound, value))
@@ -81,7 +83,15 @@ class Backend(Protocol):
 
 
 class SimBackend:
-    """Baxter's right arm simulated by `robot_sim.arm.SimulatedArm` in real time."""
+    """Baxter's right arm simulated by `robot_sim.arm.SimulatedArm` in real time.
+
+    A servo step that would leave the arm exactly as it is (the same positions and
+    velocities) is not computed again while its inputs stay the same (the state, target and
+    feed-forward bit for bit, and the step's dt, or any dt when the arm rests exactly on its
+    target with no feed-forward), and a command equal to the one the servo already has is not
+    clipped again: the arm's state is what it would have been, bit for bit
+    (`tests/unit/bridge/test_handover_equivalence.py`).
+    """
 
     name = "sim"
 
@@ -93,9 +103,27 @@ class SimBackend:
         self.arm = SimulatedArm(time_constant_s, self.limits, initial_position_rad)
         self.robot_command_timeout_s = float(robot_command_timeout_s)
         self._holding_target: np.ndarray | None = None
+        self._at_rest: tuple | None = None  # (state, dt or None: any, inputs) of a step that changed nothing
+        self._commanded: tuple | None = None  # (command bytes, the target and feed-forward arrays it set)
 
     def step(self, dt_s: float) -> None:
-        self.arm.step(dt_s)
+        arm = self.arm
+        before = arm.state
+        inputs = (arm.target_rad.tobytes(), arm.feedforward_rad_s.tobytes(), arm.time_constant_s)
+        rest = self._at_rest
+        if (rest is not None and rest[0] is before and rest[2] == inputs
+                and (rest[1] == dt_s or (rest[1] is None and 0.0 < dt_s < math.inf))):
+            return  # a step with these inputs changed nothing: it would change nothing again
+        arm.step(dt_s)
+        after = arm.state
+        self._at_rest = None
+        q = before.position_rad.tobytes()
+        if (after is not before and after.position_rad.tobytes() == q
+                and after.velocity_rad_s.tobytes() == before.velocity_rad_s.tobytes()):
+            # At rest on its target with no feed-forward, the step is q + 0 for any dt > 0
+            # (q is not −0.0: the step would have made it +0.0); otherwise only for this dt.
+            any_dt = inputs[0] == q and not arm.feedforward_rad_s.any()
+            self._at_rest = (after, None if any_dt else dt_s, inputs)
 
     def catch_up(self, gap_s: float) -> None:
         """The simulated robot did not stop when the bridge stalled: like Baxter's own
@@ -108,6 +136,7 @@ class SimBackend:
             return
         going_on_s = min(gap_s, self.robot_command_timeout_s)
         self.arm.set_target(self.arm.target_rad.copy(), None)
+        self._commanded = None
         self.step(going_on_s)
         if gap_s > going_on_s:
             self.hold()
@@ -115,7 +144,14 @@ class SimBackend:
 
     def command(self, target_rad: np.ndarray, feedforward_rad_s: np.ndarray | None = None) -> None:
         self._holding_target = None
-        self.arm.set_target(target_rad, feedforward_rad_s)
+        arm = self.arm
+        key = _command_bytes(target_rad, feedforward_rad_s)
+        done = self._commanded
+        if (key is not None and done is not None and done[0] == key
+                and done[1] is arm.target_rad and done[2] is arm.feedforward_rad_s):
+            return  # the servo already has this very command (the same bytes, not changed since)
+        arm.set_target(target_rad, feedforward_rad_s)
+        self._commanded = None if key is None else (key, arm.target_rad, arm.feedforward_rad_s)
 
     def hold(self) -> None:
         # Latch the position at the moment the hold starts, so the arm stays there.
@@ -128,7 +164,7 @@ class SimBackend:
         return JointReading(
             position_rad=state.position_rad.copy(),
             velocity_rad_s=state.velocity_rad_s.copy(),
-            effort_nm=np.zeros_like(state.position_rad),
+            effort_nm=np.zeros(state.position_rad.shape),
         )
 
     def publish_extras(self, publish: PublishFn) -> None:
@@ -139,6 +175,17 @@ class SimBackend:
 
     def close(self) -> None:
         return None
+
+
+def _command_bytes(target_rad: Any, feedforward_rad_s: Any) -> tuple | None:
+    """A joint command's exact shapes and bytes (float64 arrays only; None for anything else)."""
+    if type(target_rad) is not np.ndarray or target_rad.dtype != np.float64:
+        return None
+    if feedforward_rad_s is None:
+        return target_rad.shape, target_rad.tobytes(), None
+    if type(feedforward_rad_s) is not np.ndarray or feedforward_rad_s.dtype != np.float64:
+        return None
+    return target_rad.shape, target_rad.tobytes(), feedforward_rad_s.shape, feedforward_rad_s.tobytes()
 
 
 def _sim_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:

@@ -1,8 +1,8 @@
 """Sim backend of a full handover: the arm plus `robot_sim.handover_scene.HandoverScene`.
 
 Each bridge tick (10 ms at 100 Hz) steps the arm, then the scene with the tool position
-(pinocchio FK of the arm), the tool speed and the latest `gripper/command` force, and
-publishes
+(pinocchio FK of the arm, computed again only when a joint moved), the tool speed and the
+latest `gripper/command` force, and publishes
 
 - `sensors/wrist_wrench`, `sensors/object_motion`: what the sensors of a real gripper would
   read (zero load and no surface while nothing is held);
@@ -19,6 +19,7 @@ hand back at rest: the lab assistant resetting the scene.
 
 from __future__ import annotations
 
+import math
 import threading
 
 import numpy as np
@@ -33,7 +34,7 @@ from services.bridge.errors import BridgeConfigError
 def _vec(v: np.ndarray, bound: float = 100.0) -> tuple[float, float, float]:
     """The three components of `v` clipped to [−bound, bound]; NaN or inf become 0 (plain
     floats: three values are cheaper in Python than through numpy's clip and nan_to_num)."""
-    x, y, z = v
+    x, y, z = v.tolist()
     return clip_finite(x, bound), clip_finite(y, bound), clip_finite(z, bound)
 
 
@@ -57,7 +58,9 @@ class HandoverSimBackend(SimBackend):
             raise BridgeConfigError(f"invalid [services.bridge.config.contact]: {exc}") from None
         self.grip_command_n = 0.0
         self._out: SceneOutput | None = None
-        self._tool = arm_model().tool_pose(self.arm.state.position_rad)[0]
+        q = self.arm.state.position_rad
+        self._tool = arm_model().tool_pose(q)[0]
+        self._tool_q = q.tobytes()  # the joint positions `_tool` is the FK of
         self._tool_speed = 0.0
         self._lock = threading.Lock()
         self._reset_pending = False
@@ -71,15 +74,21 @@ class HandoverSimBackend(SimBackend):
 
     def step(self, dt_s: float) -> None:
         super().step(dt_s)
-        tool = arm_model().tool_pose(self.arm.state.position_rad)[0]
-        if dt_s > 0:
-            self._tool_speed = float(np.linalg.norm(tool - self._tool) / dt_s)
-        self._tool = tool
+        q = self.arm.state.position_rad
+        q_bytes = q.tobytes()
+        if q_bytes != self._tool_q:
+            tool = arm_model().tool_pose(q)[0]
+            if dt_s > 0:
+                d = tool - self._tool
+                self._tool_speed = math.sqrt(d.dot(d)) / dt_s  # np.linalg.norm's own sqrt(x·x)
+            self._tool, self._tool_q = tool, q_bytes
+        elif dt_s > 0:
+            self._tool_speed = 0.0  # the same joints, the same tool position (FK is deterministic)
         with self._lock:
             if self._reset_pending:
                 self.scene.reset()
                 self._reset_pending = False
-            self._out = self.scene.step(dt_s, tool, self._tool_speed, self.grip_command_n)
+            self._out = self.scene.step(dt_s, self._tool, self._tool_speed, self.grip_command_n)
 
     def scene_snapshot(self) -> tuple[np.ndarray, np.ndarray]:
         """(receiver's right hand, object centre), `base`, m: for the simulated Kinect."""

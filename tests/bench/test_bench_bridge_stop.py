@@ -8,6 +8,11 @@ tick), publishes a stop and waits for the braking joint state (`tests.integratio
 test_bridge_stop.StopRig`). Baseline, same run: the old behaviour, the bridge started with
 ``--stop-on-tick`` (the stop waits for the next tick of the 10 ms grid). The ratio is
 baseline / new. JSON: out/bench/bridge_stop.json.
+
+Also here: the CPU of one sim-bridge tick per state of the scripted handover (rest with the
+receiver, held still, transfer, moving empty, rest after a drop), this code against the last
+commit before the cheaper tick, in one process (`tests.unit.bridge.tick_cpu`; offline, no bus).
+JSON: out/bench/bridge_tick_cpu.json.
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ from services.runtime import ServiceNode
 from services.runtime.testing import BusRouter, ServiceProcess, loopback_profile, wait_alive
 from tests.bench._report import save, summarize, table
 from tests.integration.test_bridge_stop import run_trials, stop_ticks_from_log
+from tests.unit.bridge import tick_cpu
 
 pytestmark = [pytest.mark.bench, pytest.mark.timeout(600)]
 
@@ -63,3 +69,17 @@ def test_bridge_stop_latency_new_vs_tick_grid():
                          "ratio_p99": ratio_p99, "new_extra_stop_ticks": new_stop_ticks,
                          "trials": TRIALS, "load_average": [load_before, load_after]})
     assert s_new["n"] == TRIALS and s_old["n"] == TRIALS
+
+
+@pytest.mark.parametrize("period_s", [0.0, 0.01], ids=["back_to_back", "paced_100hz"])
+def test_bridge_tick_cpu_per_state_old_vs_new(tmp_path, period_s):
+    samples = tick_cpu.compare(rounds=5 if period_s == 0.0 else 2, into=tmp_path, period_s=period_s)
+    rows, results = [], {}
+    for state in tick_cpu.STATES:
+        old, new = (summarize(samples[v][state]) for v in ("baseline", "new"))
+        results[state] = {"baseline_us": old, "new_us": new}
+        rows.append((state, f"{old['median']:.1f}", f"{old['p99']:.1f}", f"{new['median']:.1f}", f"{new['p99']:.1f}"))
+    print()
+    print(table(rows, ("tick CPU (µs)", "baseline median", "p99", "new median", "p99")))
+    save(f"bridge_tick_cpu_{'paced' if period_s else 'back_to_back'}", results)
+    assert results["rest"]["new_us"]["median"] < results["rest"]["baseline_us"]["median"]

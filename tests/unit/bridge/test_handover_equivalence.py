@@ -1,0 +1,179 @@
+"""The sim backend's cheaper tick publishes what the old full stepping published, bit for bit.
+
+Two backends of the default profile run the same scripted handover side by side
+(`handover_script`: empty move, pick, held still, carry, transfer with a taking or a dropping
+receiver, rest; short extra ticks and a catch-up gap; a commanded hold; a new episode):
+
+- `FullStepping`, the tick as it was: the arm servo stepped, the tool's FK evaluated, every
+  1 kHz plant step run through the plant's generic equations (`step_generic`), each tick;
+- the backend as it is: resting servo steps and unchanged FK skipped, the plant stepped on
+  floats and its resting steps replayed (`robot_sim.contact.rest`).
+
+Every tick, the published fields, the joint reading and the whole scene state (object,
+hand, phases, plant, arm, tool) must be equal by `repr` (−0.0 is not 0.0), and the scene's
+output must be what the scene built from the plant's `Observation` before.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from robot_sim.baxter import arm_model
+from robot_sim.contact.config import ContactSimError
+from robot_sim.contact.generic_step import step_generic
+from robot_sim.contact.plant import ContactPlant
+from robot_sim.handover_scene import HandoverScene, SceneOutput, SceneParams
+from services.bridge.handover_backend import HandoverSimBackend
+from tests.unit.bridge import handover_script as hs
+from tests.unit.contact.helpers import plant_state
+
+
+class FullPlant(ContactPlant):
+    """The plant stepped as before: every step through the generic equations."""
+
+    def run(self, duration_s: float, grip_command_n) -> None:
+        cmd = np.asarray(grip_command_n, dtype=float)
+        if not math.isfinite(duration_s) or duration_s < 0 or not np.all(np.isfinite(cmd)) or np.any(cmd < 0):
+            raise ContactSimError("bad duration or command")
+        self.ft_fresh = self.optical_fresh = False
+        for _ in range(max(1, int(round(duration_s / self.dt_s)))):
+            step_generic(self, float(cmd))
+
+
+class FullStepping(HandoverSimBackend):
+    """The backend's tick as it was: servo, FK and every plant step each tick."""
+
+    def __init__(self, params: SceneParams, **kwargs) -> None:
+        super().__init__(params, **kwargs)
+        self.scene.plant_type = FullPlant
+
+    def command(self, target_rad, feedforward_rad_s=None) -> None:
+        self._holding_target = None
+        self.arm.set_target(target_rad, feedforward_rad_s)
+
+    def step(self, dt_s: float) -> None:
+        self.arm.step(dt_s)
+        tool = arm_model().tool_pose(self.arm.state.position_rad)[0]
+        if dt_s > 0:
+            self._tool_speed = float(np.linalg.norm(tool - self._tool) / dt_s)
+        self._tool = tool
+        with self._lock:
+            if self._reset_pending:
+                self.scene.reset()
+                self._reset_pending = False
+            self._out = self.scene.step(dt_s, tool, self._tool_speed, self.grip_command_n)
+
+
+def full_stepping(behaviour: str) -> FullStepping:
+    """`FullStepping` for the default profile, as `make_backend` builds the real one."""
+    config = hs.profile_config(behaviour)
+    c = config.contact
+    params = SceneParams(behaviour=c.behaviour, receiver=dict(c.receiver), pull_angle_deg=c.pull_angle_deg,
+                         object_mass_kg=c.object_mass_kg, mu_static=c.mu_static, mu_kinetic=c.mu_kinetic,
+                         seed=c.seed, height_m=c.height_m, posture=c.posture)
+    return FullStepping(params, time_constant_s=config.servo_time_constant_s,
+                        robot_command_timeout_s=config.sim_robot_command_timeout_s)
+
+
+def output_from_observation(scene: HandoverScene) -> SceneOutput | None:
+    """The scene's output as it was built before: from the plant's `Observation`."""
+    if scene.plant is None:
+        return None
+    obs = scene.plant.observation()
+    holder = {"on_table": "table", "dropped": "none"}.get(scene.object_phase)
+    in_pads = not bool(obs.left_pads) and float(obs.grip_force_n) > 0.0
+    receiver = bool(obs.receiver_holds)
+    if holder is None:
+        holder = "both" if in_pads and receiver else "gripper" if in_pads else "receiver" if receiver else "none"
+    return SceneOutput(
+        wrist_force_n=(float(obs.wrist_force_x_n), float(obs.wrist_force_y_n)),
+        optical_counts=(float(obs.optical_counts_x), float(obs.optical_counts_y)),
+        optical_counts_per_m=float(obs.optical_counts_per_m), optical_dt_s=float(obs.optical_dt_s),
+        optical_valid=bool(obs.optical_valid),
+        slip_velocity_m_s=(float(obs.slip_velocity_x_m_s), float(obs.slip_velocity_y_m_s)),
+        accel_y_m_s2=float(obs.accel_y_m_s2), object_phase=scene.object_phase, receiver_phase=scene.receiver_phase,
+        object_position_m=scene.object_m.copy(), object_velocity_m_s=scene.object_velocity_m_s.copy(),
+        held_by=holder, dropped=bool(obs.dropped), slip_m=float(obs.object_position_y_m),
+        grip_force_n=max(0.0, float(obs.grip_force_n)), receiver_hand_m=scene.hand_m.copy(),
+        receiver_pull_n=float(obs.pull_force_x_n),
+    )
+
+
+def published(backend: HandoverSimBackend) -> str:
+    """What one tick publishes: the joint reading and the backend's extras, as exact text."""
+    extras: list = []
+    backend.publish_extras(lambda suffix, fields: extras.append((suffix, fields)))
+    r = backend.read()
+    return repr((r.position_rad.tolist(), r.velocity_rad_s.tolist(), r.effort_nm.tolist(), extras))
+
+
+def scene_state(backend: HandoverSimBackend) -> str:
+    sc, arm = backend.scene, backend.arm
+    return repr((sc.object_phase, sc.receiver_phase, sc.object_m.tolist(), sc.object_velocity_m_s.tolist(),
+                 sc.hand_m.tolist(), None if sc._origin_m is None else sc._origin_m.tolist(), sc._reach_elapsed_s,
+                 sc._reach_start_hand_m.tolist(), sc.episode, None if sc.plant is None else plant_state(sc.plant),
+                 arm.state.position_rad.tolist(), arm.state.velocity_rad_s.tolist(), arm.target_rad.tolist(),
+                 arm.feedforward_rad_s.tolist(), backend._tool.tolist(), backend._tool_speed))
+
+
+def episode(backend: HandoverSimBackend, poses: hs.Poses) -> list[hs.Tick]:
+    """The scripted episode's ticks for `backend` (run on it), then a commanded hold: the
+    same command array again and again (a gate between commands), then equal new arrays."""
+    ticks = []
+    for tick in hs.script(backend, poses, rest_s=1.5):
+        hs.apply(backend, tick)
+        ticks.append(tick)
+    target, zero = poses.transfer.copy(), np.zeros(7)
+    held = [hs.Tick(target, zero, 0.0) for _ in range(40)] + [hs.Tick(target.copy(), zero.copy(), 0.0)
+                                                               for _ in range(40)]
+    for tick in held:
+        hs.apply(backend, tick)
+    return ticks + held
+
+
+@pytest.mark.parametrize("behaviour", ["taking", "dropping"])
+def test_the_cheaper_tick_publishes_what_full_stepping_published(behaviour):
+    poses = hs.poses()
+    script = episode(hs.default_backend(behaviour), poses)
+    script = script + [hs.Tick(None, None, 0.0, dt_s=0.01, state="reset")] + script  # a new episode
+    new, old = hs.default_backend(behaviour), full_stepping(behaviour)
+    rests = {"plant": 0, "arm": 0}
+    for i, tick in enumerate(script):
+        for backend in (new, old):
+            if tick.state == "reset":
+                backend.new_episode()
+            hs.apply(backend, tick)
+        assert published(new) == published(old), f"tick {i} ({tick.state})"
+        assert scene_state(new) == scene_state(old), f"tick {i} ({tick.state})"
+        expected = output_from_observation(new.scene)
+        if expected is not None:
+            assert repr(new._out) == repr(expected), f"tick {i} ({tick.state})"
+        rests["plant"] += new.scene.plant is not None and new.scene.plant._rest is not None
+        rests["arm"] += new._at_rest is not None
+    # The skipped paths were taken (the comparison is not empty): the plant rests while the
+    # object waits in the gripper and is carried, the arm while it holds.
+    assert rests["plant"] > 300 and rests["arm"] > 300, rests
+    assert new.scene.episode == old.scene.episode == 2
+
+
+def test_a_wrongly_skipped_servo_step_is_caught():
+    """The comparison catches a servo step skipped while the arm moves."""
+    poses = hs.poses()
+    new, old = hs.default_backend("taking"), full_stepping("taking")
+    move = list(hs.empty_moves(poses))[:50]
+    for tick in move[:20]:
+        hs.apply(new, tick)
+        hs.apply(old, tick)
+    assert scene_state(new) == scene_state(old)
+    tick = move[20]
+    for backend in (new, old):
+        backend.command(tick.target_rad, tick.feedforward_rad_s)
+    arm = new.arm
+    new._at_rest = (arm.state, None, (arm.target_rad.tobytes(), arm.feedforward_rad_s.tobytes(),
+                                      arm.time_constant_s))  # wrong: the arm moves
+    new.step(0.01)
+    old.step(0.01)
+    assert published(new) != published(old)
