@@ -60,8 +60,9 @@ class LaunchOptions:
     def service_args(self, name: str, scene_service: str = "bridge") -> list[str]:
         """Command-line overrides for service `name` (receiver, posture, seed → the service
         that simulates the scene: the bridge, or the fake Baxter when the profile has one;
-        posture and seed also → the simulated Kinect service ``kinect``, which renders the
-        same receiver; episodes → the supervisor)."""
+        posture and seed also → the simulated Kinect, which renders the same receiver: the
+        ``kinect`` service, or the tracker's own (``sensor = "sim"``); episodes → the
+        supervisor)."""
         args: list[str] = []
         if name == scene_service and self.receiver is not None:
             args += ["--receiver", self.receiver]
@@ -70,6 +71,11 @@ class LaunchOptions:
                 args += ["--posture", self.posture]
             if self.seed is not None:
                 args += ["--seed", str(self.seed)]
+        if name == "tracker":  # its simulated Kinect, when the profile renders one in the tracker
+            if self.posture is not None:
+                args += ["--posture", self.posture]
+            if self.seed is not None:
+                args += ["--kinect-seed", str(self.seed)]
         if name == "supervisor" and self.episodes is not None:
             args += ["--episodes", str(self.episodes)]
         return args

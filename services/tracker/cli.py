@@ -27,6 +27,14 @@ def _add_config_flags(p: argparse.ArgumentParser) -> None:
     g.add_argument("--no-lag-correction", action="store_true", help="disable Mincelli's lag correction (a)")
     g.add_argument("--no-proximity-filter", action="store_true", help="disable Mincelli's robot-proximity filter (b)")
     g.add_argument("--proximity-mode", choices=["hold", "predict"], default=None, help="what (b) does while engaged")
+    g.add_argument("--sensor", choices=["bus", "sim"], default=None,
+                   help="skeleton and depth from the bus, or from a simulated Kinect in this process")
+    g.add_argument("--publish-depth", action="store_true",
+                   help="sensor = \"sim\": also publish perception/depth (for a recorder that records depth)")
+    g.add_argument("--posture", choices=["standing", "sitting"], default=None,
+                   help="the simulated Kinect's receiver (sensor = \"sim\" only; must match the bridge's)")
+    g.add_argument("--kinect-seed", dest="kinect_seed", type=int, default=None,
+                   help="the simulated Kinect's noise seed (sensor = \"sim\" only)")
 
 
 def _config(args: argparse.Namespace, base: dict) -> TrackerConfig:
@@ -41,6 +49,17 @@ def _config(args: argparse.Namespace, base: dict) -> TrackerConfig:
         values["proximity_filter"] = False
     if args.proximity_mode is not None:
         values["proximity_mode"] = args.proximity_mode
+    if getattr(args, "sensor", None) is not None:
+        values["sensor"] = args.sensor
+    if getattr(args, "publish_depth", False):
+        values["publish_depth"] = True
+    sim = dict(values.get("sim_kinect") or {})
+    if getattr(args, "posture", None) is not None:
+        sim["posture"] = args.posture
+    if getattr(args, "kinect_seed", None) is not None:
+        sim["seed"] = args.kinect_seed
+    if sim:
+        values["sim_kinect"] = sim
     return config_from_dict(values)
 
 

@@ -10,6 +10,7 @@ from typing import Literal
 import msgspec
 
 from robot_sim import scene
+from services.sim_kinect.config import KinectConfig
 from services.tracker.errors import TrackerConfigError
 
 
@@ -53,7 +54,16 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
         object_min_height_m, object_max_height_m: object points lie this high above the table.
         object_min_pixels: smallest blob taken for an object.
         floor_z_m: floor height in `base` (m).
-        rate_hz: the node's loop rate.
+        rate_hz: the node's loop rate with ``sensor = "bus"`` (with ``"sim"`` the loop runs
+            at the simulated Kinect's frame rate).
+        sensor: where skeleton and depth come from: ``bus`` (`perception/skeleton` and
+            `perception/depth`: a Kinect driver, the ROS 1 path or the stand-alone simulated
+            Kinect service) or ``sim`` (the simulated Kinect rendered in the tracker's own
+            process from `robot/joint_state` and `sim/truth`; `services.tracker.sources`).
+        sim_kinect: the simulated Kinect of ``sensor = "sim"`` (the fields of
+            `services.sim_kinect.config.KinectConfig`: rate, receiver's body, scene, seed).
+        publish_depth: with ``sensor = "sim"``, also publish `perception/depth` (a recorder
+            with ``depth_every`` ≥ 1 records it; nothing else reads it).
     """
 
     lag_correction: bool = True
@@ -83,6 +93,9 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
     object_min_pixels: int = 20
     floor_z_m: float = -scene.BASE_HEIGHT_ABOVE_FLOOR_M
     rate_hz: float = 60.0
+    sensor: Literal["bus", "sim"] = "bus"
+    sim_kinect: KinectConfig = msgspec.field(default_factory=KinectConfig)
+    publish_depth: bool = False
 
     def __post_init__(self) -> None:
         checks = [
@@ -117,6 +130,8 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
         for ok, message in checks:
             if not ok:
                 raise TrackerConfigError(f"invalid tracker config: {message}")
+        if self.sim_kinect.hand_target_base_m and len(self.sim_kinect.hand_target_base_m) != 3:
+            raise TrackerConfigError("invalid tracker config: sim_kinect.hand_target_base_m needs 3 values (x, y, z)")
 
 
 def config_from_dict(values: dict) -> TrackerConfig:

@@ -1,8 +1,10 @@
 """Bus wiring of the tracker: skeleton, depth and joint state in; human state and object out.
 
-Live: subscribes `perception/skeleton`, `perception/depth`, `robot/joint_state`.
-Replay: reads a replay file instead, paced in real time, and publishes the same outputs, so
-the tracker runs without the simulator. Publishes `perception/human` on every skeleton frame
+Live (``sensor = "bus"``): subscribes `perception/skeleton`, `perception/depth`,
+`robot/joint_state`. Simulation (``sensor = "sim"``): renders the simulated Kinect in this
+process from `robot/joint_state` and `sim/truth` (`services.tracker.sources`). Replay: reads a
+replay file instead, paced in real time, and publishes the same outputs, so the tracker runs
+without the simulator. Publishes `perception/human` on every skeleton frame
 (and at 10 Hz when frames stop coming, with ``tracked = False``) and `perception/object`
 whenever an object detection runs.
 """
@@ -19,14 +21,14 @@ from bus_schema import topics as T
 from robot_sim.baxter import RIGHT_ARM_JOINTS
 from robot_sim.kinect.robot_geometry import ArmGeometry
 from services.runtime import ServiceNode
-from services.runtime.logs import RateLimitedLog
+from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.profile import Profile
 from services.tracker.config import TrackerConfig
 from services.tracker.core import HumanEstimate, TrackerPipeline, skeleton_frame_from_message
 from services.tracker.objects import ObjectDetection
 from services.tracker.pointcloud import depth_frame_from_message
 from services.tracker.process import tune_process
-from services.tracker.replay import ReplayItem, read_replay
+from services.tracker.sources import BusInputs, ReplayInputs, SimKinectInputs
 
 log = logging.getLogger("tracker")
 HEARTBEAT_S = 0.1
@@ -92,6 +94,15 @@ class _Feeder:
         self.human.append(self.pipe.on_skeleton(skeleton_frame_from_message(msg, t_s)))
 
 
+def _inputs(node: ServiceNode, config: TrackerConfig, replay_path: Path | None, replay_loop: bool):
+    """The tick's input source: a replay file, the in-process simulated Kinect or the bus."""
+    if replay_path is not None:
+        return ReplayInputs(replay_path, replay_loop, time.monotonic())
+    if config.sensor == "sim":
+        return SimKinectInputs(config.sim_kinect, node, config.publish_depth)
+    return BusInputs(node)
+
+
 def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None = None,
              replay_loop: bool = False) -> int:
     """Run the tracker until shutdown (or the end of the replay file)."""
@@ -102,57 +113,17 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
     with ServiceNode("tracker", profile) as node:
         human_pub = node.publisher(T.HUMAN)
         object_pub = node.publisher(T.OBJECT)
-        subs = None
-        replay_iter = None
-        pending: ReplayItem | None = None
-        start = time.monotonic()
-        if replay_path is None:
-            # All three are read at the loop's own tick (a `RateLoop`, which never waits on
-            # them): no message wakes the loop. Only the newest depth image (and joint state)
-            # of a tick goes into the pipeline, which keeps only the newest anyway.
-            subs = (
-                node.subscribe(T.JOINT_STATE, wake=False),
-                node.subscribe(T.DEPTH, queue_size=4, wake=False),
-                node.subscribe(T.SKELETON, wake=False),
-            )
-        else:
-            replay_iter = iter(read_replay(replay_path))
-            log.info("replaying %s", replay_path)
+        inputs = _inputs(node, config, replay_path, replay_loop)
+        rate_hz = config.sim_kinect.rate_hz if isinstance(inputs, SimKinectInputs) else config.rate_hz
+        log.info("tracker inputs: %s", "replay" if replay_path is not None else config.sensor,
+                 extra=kv(rate_hz=rate_hz))
         last_publish = 0.0
         last_status = None
-        for _tick in node.loop(config.rate_hz):
+        for _tick in node.loop(rate_hz):
             now = time.monotonic()
-            if subs is not None:
-                js_sub, depth_sub, skel_sub = subs
-                for rx in reversed(js_sub.drain()):  # the newest usable one
-                    if feeder.joint_state(rx.msg, rx.rx_monotonic):
-                        break
-                depths = depth_sub.drain()
-                if depths:
-                    feeder.depth(depths[-1].msg, depths[-1].rx_monotonic)
-                for rx in skel_sub.drain():
-                    feeder.skeleton(rx.msg, rx.rx_monotonic)
-            else:
-                while True:
-                    if pending is None:
-                        pending = next(replay_iter, None)
-                        if pending is None:
-                            if not replay_loop:
-                                log.info("replay finished")
-                                node.request_stop()
-                                break
-                            replay_iter = iter(read_replay(replay_path))
-                            start = now
-                            continue
-                    if start + pending.t_s > now:
-                        break
-                    item, pending = pending, None
-                    if item.topic is T.JOINT_STATE:
-                        feeder.joint_state(item.msg, now)
-                    elif item.topic is T.DEPTH:
-                        feeder.depth(item.msg, now)
-                    elif item.topic is T.SKELETON:
-                        feeder.skeleton(item.msg, now)
+            if not inputs.feed(feeder, now):
+                node.request_stop()
+                break
             det = pipe.detect_object()
             if det is not None:
                 object_pub.put(**object_fields(det, config.object_mass_kg))
@@ -170,4 +141,7 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
                 log.info("human %s%s", "tracked" if state.tracked else "not tracked",
                          f": {state.status}" if state.status else "")
                 last_status = status
+        if isinstance(inputs, SimKinectInputs):
+            log.info("simulated Kinect stopped", extra=kv(frames=inputs.frames, skipped=inputs.skipped,
+                                                          failed=inputs.failed))
     return 0

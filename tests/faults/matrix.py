@@ -44,7 +44,7 @@ from tests.faults.invariants import REPORT_ONLY, FaultPlan, judge
 
 #: Where the campaign of record lives (tracked: its runs took hours; `--out` for a scratch one).
 OUT = Path(__file__).resolve().parents[2] / "docs" / "data" / "faults"
-SERVICES = ("bridge", "motion", "gripper", "supervisor", "planner", "tracker", "kinect", "recorder")
+SERVICES = ("bridge", "motion", "gripper", "supervisor", "planner", "tracker", "recorder")
 PHASES = ("locate", "pick", "plan", "reach", "transfer", "released")
 FAULTS = ("kill", "freeze", "delay", "drop", "flood")
 SERVICE_TOPIC = {

@@ -38,7 +38,7 @@ from tests.faults.report import DEFAULT_DIR
 pytestmark = [pytest.mark.integration, pytest.mark.timeout(180)]
 
 OUT = DEFAULT_DIR  # one JSON per run, outside the checkout (tests/faults/report.py)
-CRITICAL = ("bridge", "motion", "gripper", "planner", "tracker", "kinect", "supervisor")
+CRITICAL = ("bridge", "motion", "gripper", "planner", "tracker", "supervisor")
 SAFETY_TOPICS = (  # (publisher, topic)
     ("gripper", "gripper/release"),
     ("supervisor", "motion/stop"),

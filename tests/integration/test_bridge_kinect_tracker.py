@@ -1,5 +1,7 @@
-"""Bridge (sim backend) + simulated Kinect service → tracker as real processes: the human
-and the object come out, and the Kinect's truth matches what the tracker reports."""
+"""Bridge (sim backend) + simulated Kinect → tracker as real processes: the human and the
+object come out, and the Kinect's truth matches what the tracker reports. The Kinect either
+as its own service (`services.sim_kinect`, the tracker's ``sensor = "bus"``) or rendered in
+the tracker's process (``sensor = "sim"``, the default profile's)."""
 
 from __future__ import annotations
 
@@ -19,7 +21,7 @@ def test_bridge_and_kinect_feed_the_tracker(bus, make_node):
     profile, router = bus
     with ServiceProcess("services.bridge", profile) as bridge, \
             ServiceProcess("services.sim_kinect", profile) as kinect, \
-            ServiceProcess("services.tracker", profile) as tracker:
+            ServiceProcess("services.tracker", profile, ["--sensor", "bus"]) as tracker:
         wait_alive(router, profile, {"bridge", "kinect", "tracker"}, timeout_s=30)
         node = make_node()
         skeletons = node.subscribe(topics.SKELETON, queue_size=1000)
@@ -66,7 +68,7 @@ def test_sitting_receiver_without_contact_plant(bus, make_node):
     profile, router = bus
     with ServiceProcess("services.bridge", profile, ["--no-contact", "--posture", "sitting"]), \
             ServiceProcess("services.sim_kinect", profile, ["--scene", "none", "--posture", "sitting"]), \
-            ServiceProcess("services.tracker", profile):
+            ServiceProcess("services.tracker", profile, ["--sensor", "bus"]):
         wait_alive(router, profile, {"bridge", "kinect", "tracker"}, timeout_s=30)
         node = make_node()
         kinect_truth = node.subscribe(topics.KINECT_TRUTH, queue_size=1000)
@@ -80,3 +82,54 @@ def test_sitting_receiver_without_contact_plant(bus, make_node):
         assert wait_until(lambda: kinect_truth.latest() is not None, 5)
         np.testing.assert_allclose(kinect_truth.latest().msg.hand_position_m, rest, atol=1e-6)
         assert sim_truth.latest() is None  # no contact plant: nobody publishes sim/truth
+
+
+def test_the_tracker_renders_the_simulated_kinect_itself(bus, make_node):
+    """``sensor = "sim"``: no Kinect process; the tracker publishes the skeleton (~30 Hz) and
+    the Kinect's truth, tracks the receiver and finds the object; the depth image stays in its
+    process unless ``--publish-depth``."""
+    profile, router = bus
+    with ServiceProcess("services.bridge", profile) as bridge, \
+            ServiceProcess("services.tracker", profile, ["--sensor", "sim"]) as tracker:
+        wait_alive(router, profile, {"bridge", "tracker"}, timeout_s=30)
+        node = make_node()
+        skeletons = node.subscribe(topics.SKELETON, queue_size=1000)
+        depths = node.subscribe(topics.DEPTH, queue_size=100)
+        humans = node.subscribe(topics.HUMAN, queue_size=1000)
+        objects = node.subscribe(topics.OBJECT, queue_size=1000)
+        kinect_truth = node.subscribe(topics.KINECT_TRUTH, queue_size=1000)
+        sim_truth = node.subscribe(topics.SIM_TRUTH, queue_size=1000)
+        assert wait_until(lambda: humans.latest() is not None and humans.latest().msg.tracked, 20)
+        skeletons.drain()
+        kinect_truth.drain()
+        time.sleep(2.0)
+        skel_window, frames = skeletons.drain(), kinect_truth.drain()
+        assert 40 <= len(skel_window) <= 70, len(skel_window)  # ~30 Hz
+        assert {rx.msg.source for rx in skel_window} == {"tracker"}
+        assert depths.drain() == []  # the image never crossed the bus
+        np.testing.assert_allclose(frames[-1].msg.hand_position_m, sim_truth.latest().msg.receiver_hand_position_m,
+                                   atol=0.01)  # one receiver: the bridge's scene drives the body
+        human = humans.latest().msg
+        assert human.height_m == pytest.approx(1.75, abs=0.1)
+        assert np.linalg.norm(np.array(human.hand_position_m) - np.array(frames[-1].msg.hand_position_m)) < 0.25
+        assert wait_until(lambda: objects.latest() is not None and objects.latest().msg.found, 10)
+        found = np.array(objects.latest().msg.position_m)
+        assert np.linalg.norm(found[:2] - scene.OBJECT_PICK_BASE_M[:2]) < 0.05
+        assert bridge.proc.poll() is None and tracker.proc.poll() is None
+
+
+def test_the_tracker_publishes_its_depth_image_when_asked(bus, make_node):
+    profile, router = bus
+    with ServiceProcess("services.bridge", profile), \
+            ServiceProcess("services.tracker", profile, ["--sensor", "sim", "--publish-depth", "--posture", "sitting"]):
+        wait_alive(router, profile, {"bridge", "tracker"}, timeout_s=30)
+        node = make_node()
+        depths = node.subscribe(topics.DEPTH, queue_size=100)
+        assert wait_until(lambda: depths.latest() is not None, 20)
+        depths.drain()
+        time.sleep(1.0)
+        window = depths.drain()
+        assert 20 <= len(window) <= 40, len(window)  # ~30 Hz
+        image = window[-1].msg
+        assert image.source == "tracker" and (image.width, image.height) == (320, 240)
+        assert len(image.depth_mm) == 2 * 320 * 240

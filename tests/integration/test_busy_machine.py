@@ -29,7 +29,7 @@ pytestmark = [pytest.mark.integration]
 #: is judged against the p99 bound itself.
 KILL_DETECTION_S = 0.1
 FREEZE_DETECTION_S = 0.25
-CRITICAL = ("bridge", "motion", "gripper", "planner", "tracker", "kinect", "supervisor")
+CRITICAL = ("bridge", "motion", "gripper", "planner", "tracker", "supervisor")
 _HOG = "import os\nos.nice(0)\nwhile True:\n    pass\n"
 
 

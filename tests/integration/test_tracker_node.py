@@ -37,7 +37,8 @@ def test_tracker_process_publishes_human_and_object_and_survives_garbage_and_sil
         ]
         pubs = {t: session.declare_publisher(t.key(profile.prefix)) for t in (T.SKELETON, T.DEPTH, T.JOINT_STATE)}
         try:
-            with ServiceProcess("services.tracker", profile, name="tracker", args=["--weight-kg", "68"]) as proc:
+            with ServiceProcess("services.tracker", profile, name="tracker",
+                                args=["--weight-kg", "68", "--sensor", "bus"]) as proc:
                 wait_alive(session, profile, {"tracker"}, timeout_s=30.0)
                 pubs[T.SKELETON].put(b"\x93garbage")  # dropped, not a crash
                 pubs[T.DEPTH].put(b"\x00")
