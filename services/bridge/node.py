@@ -10,8 +10,9 @@ wakes the loop (`StopTicker`), which runs a tick at once with the real elapsed d
 joint state with the brake engaged is published within about a millisecond. A new
 supervisor episode resets a simulated scene.
 
-The simulated Kinect is not here: it is its own service (`services.sim_kinect`), so its
-~16 ms depth frames do not delay this loop through the GIL.
+The simulated Kinect is not here (it renders in the tracker, or as its own service), so its
+depth frames do not delay this loop through the GIL. `sim/truth` goes out when it changed,
+or every `TRUTH_REPEAT_S` at rest.
 """
 
 from __future__ import annotations
@@ -28,12 +29,19 @@ from services.bridge.config import BridgeConfig
 from services.bridge.core import CommandGate, StopBrake
 from services.bridge.ticker import StopTicker
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
+from services.runtime.repeat import RepeatGate
 
 log = logging.getLogger(__name__)
 
 SERVICE_NAME = "bridge"
 #: A tick later than this many periods is a stall the backend catches up on (`Backend.catch_up`).
 STALL_PERIODS = 2.0
+#: `sim/truth` goes out on every tick where any of its values changed, and otherwise again
+#: this often, s. The simulation's truth at rest (the object in the receiver's hand, the arm
+#: still) is the same message 100 times a second, each crossing the router to the launcher and
+#: the recorder (and the tracker's simulated Kinect): issue 16. Its readers take the newest
+#: value, so an unchanged one need not be repeated; every change still goes out at once.
+TRUTH_REPEAT_S = 0.1
 
 
 def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None = None) -> int:
@@ -61,7 +69,11 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
         episode_id: int | None = None
         extra_pubs: dict[str, Any] = {}
 
+        truth_gate = RepeatGate(TRUTH_REPEAT_S)
+
         def publish_extra(suffix: str, fields: dict[str, Any]) -> None:
+            if suffix == topics.SIM_TRUTH.suffix and not truth_gate.due(tuple(fields.values()), time.monotonic()):
+                return
             pub = extra_pubs.get(suffix)
             if pub is None:
                 pub = extra_pubs[suffix] = node.publisher(topics.TOPICS_BY_SUFFIX[suffix])
@@ -161,5 +173,6 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
             log.info("bridge stopped", extra=kv(accepted=gate.accepted, rejected=gate.rejected,
                                                 ignored_after_stop=brake.ignored_commands,
                                                 ticks=ticker.stats.ticks, stop_ticks=ticker.stats.urgent_ticks,
+                                                unchanged_truth_not_sent=truth_gate.skipped,
                                                 overruns=ticker.stats.overruns))
     return 0
