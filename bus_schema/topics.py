@@ -64,9 +64,9 @@ GRIPPER_STATE = _T("gripper/state", m.GripperState, "state", 100, "gripper", "gr
 GRIPPER_RELEASE = _T("gripper/release", m.ReleaseEvent, "safety", 0, "gripper", "release event")
 SUPERVISOR_STATE = _T("supervisor/state", m.SupervisorState, "state", 10, "supervisor", "handover phase")
 EPISODE = _T("supervisor/episode", m.EpisodeSummary, "state", 0, "supervisor", "episode summary")
-HEARTBEAT = _T("runtime/heartbeat", m.Heartbeat, "state", 20, "every service", "main loop running")
-SIM_TRUTH = _T("sim/truth", m.SimTruth, "state", 100, "bridge", "simulator ground truth")
-KINECT_TRUTH = _T("sim/kinect_truth", m.KinectTruth, "state", 30, "kinect", "simulated Kinect's body truth")
+HEARTBEAT = _T("runtime/heartbeat", m.Heartbeat, "state", 10, "every service", "process running (20 Hz across hosts)")
+SIM_TRUTH = _T("sim/truth", m.SimTruth, "state", 100, "bridge", "simulator ground truth (10 Hz at rest)")
+KINECT_TRUTH = _T("sim/kinect_truth", m.KinectTruth, "state", 30, "tracker or kinect", "simulated Kinect's body truth")
 del _T
 
 TOPICS: tuple[Topic, ...] = (

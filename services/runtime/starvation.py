@@ -1,7 +1,7 @@
 """Why a service's heartbeat thread woke late (pure but for `/proc` reads).
 
 The supervisor calls a service silent when its heartbeat (10 Hz on one host, sent from its own
-thread) is 0.3 s old. A live process can fall that silent in several ways, and they need different fixes:
+thread) is 0.25 s old. A live process can fall that silent in several ways, and they need different fixes:
 
 - **starved of CPU**: the thread was runnable but waited on the kernel's run queue (the
   machine is overloaded, or the process's niceness puts it behind busier ones);
@@ -31,7 +31,7 @@ from pathlib import Path
 
 #: A heartbeat thread that wakes this much after it meant to is reported, s (one beat on one host), at
 #: INFO: it explains a silence; whether the silence matters is the supervisor's to say (it
-#: calls a critical service silent when its last heartbeat is 0.3 s old, and warns then).
+#: calls a critical service silent when its last heartbeat is 0.25 s old, and warns then).
 LATE_WAKE_REPORT_S = 0.1
 
 _SCHEDSTAT = Path("/proc/thread-self/schedstat")

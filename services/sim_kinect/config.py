@@ -1,4 +1,5 @@
-"""Typed configuration of the simulated Kinect (`[services.kinect.config]` in a deploy profile)."""
+"""Typed configuration of the simulated Kinect (`[services.kinect.config]` for the stand-alone service,
+`[services.tracker.config.sim_kinect]` for the tracker's own, `[services.fake_baxter.config.kinect]`)."""
 
 from __future__ import annotations
 

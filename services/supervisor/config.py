@@ -55,14 +55,14 @@ class SupervisorConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
             goal starts a new reach.
         max_replans: new reach goals allowed per episode.
         heartbeat_timeout_s: a watched service whose heartbeat (10 Hz on one host, 20 Hz
-            across hosts) is older than this is silent; default (None): two beat periods and
-            0.1 s (`watchdog.default_heartbeat_timeout_s`: 0.3 s on one host, 0.2 s across
-            hosts). On one host a stopped service is silent sooner (about 0.13 s after its
-            last beat: the kernel says it is stopped) and a starved one is excused
-            (`services.runtime.sched`).
+            across hosts) is older than this is silent; default (None): one beat period and
+            0.15 s (`watchdog.default_heartbeat_timeout_s`: 0.25 s on one host, 0.2 s across
+            hosts); refused below one period and 0.05 s. On one host a stopped service is
+            silent sooner (about 0.13 s after its last beat: the kernel says it is stopped)
+            and a starved one is excused (`services.runtime.sched`).
         report_heartbeat_timeout_s: the heartbeat age that makes a ``report``-only service
             silent (the recorder runs at a low CPU priority and may stall in long writes;
-            nothing stops for it, so it is not judged by the 0.2 s of the critical ones).
+            nothing stops for it, so it is not judged by the 0.25 s of the critical ones).
         stream_timeout_s: a watched data stream (robot joint state, gripper state)
             older than this means its service is silent.
         watch: what a lost or silent service means: ``critical`` → protective stop,

@@ -20,7 +20,7 @@ from services.runtime.node import heartbeat_period_s
 from services.runtime.sched import MAX_EXCUSED_S, ServiceStarvation, delivery_pids
 from services.supervisor.config import SupervisorConfig
 from services.supervisor.core import Actions, Sequencer, Snapshot, TargetFilter
-from services.supervisor.watchdog import Watchdog, default_heartbeat_timeout_s, judging_for_beats
+from services.supervisor.watchdog import Watchdog, judging_for_beats, resolve_heartbeat_timeout_s
 
 log = logging.getLogger(__name__)
 #: A loop iteration this much later than the previous one means the supervisor itself was
@@ -64,7 +64,7 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
     # One host (no other machine on the bus): a silence can be told apart as starvation.
     starvation = None if profile.allow_non_loopback else ServiceStarvation(path_pids=delivery_pids())
     beat_period_s = heartbeat_period_s(profile)
-    heartbeat_timeout_s = config.heartbeat_timeout_s or default_heartbeat_timeout_s(beat_period_s)
+    heartbeat_timeout_s = resolve_heartbeat_timeout_s(config.heartbeat_timeout_s, beat_period_s)
     watchdog = Watchdog(services, heartbeat_timeout_s, config.stream_timeout_s,
                         {s: o for s, o in WATCHED_STREAMS.items() if o in services},
                         {name: config.report_heartbeat_timeout_s for name in services
@@ -187,7 +187,7 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                     act(sequencer.on_fault(now, fault.text(), critical), now)
                 if now < next_tick:
                     continue
-                period_s = RESTING_PERIOD_S if sequencer.resting else config.period_s
+                period_s = max(RESTING_PERIOD_S, config.period_s) if sequencer.resting else config.period_s
                 next_tick += period_s
                 if next_tick < now:
                     next_tick = now + period_s  # late: do not burst

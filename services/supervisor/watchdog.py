@@ -25,6 +25,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Protocol
 
+from services.supervisor.errors import SupervisorConfigError
+
 
 class Excuser(Protocol):
     """Says whether a quiet service is starved of CPU (see `services.runtime.sched`)."""
@@ -89,11 +91,35 @@ def judging_for_beats(period_s: float) -> dict[str, float]:
     return {"note_after_s": period_s + 0.01, "stopped_after_s": period_s + 0.03}
 
 
+#: How late a heartbeat may come before its service is judged silent, s (the profile's
+#: `heartbeat_timeout_s` is refused below one period and `MIN_BEAT_LATENESS_S`).
+BEAT_LATENESS_S = 0.15
+MIN_BEAT_LATENESS_S = 0.05
+
+
 def default_heartbeat_timeout_s(period_s: float) -> float:
-    """The heartbeat age that makes a service silent when the profile does not say, s: two
-    beat periods and 0.1 s (0.3 s at 10 Hz on one host, 0.2 s at 20 Hz across hosts): a beat
-    may come 0.2 s (0.15 s) late before its service is judged."""
-    return 2.0 * period_s + 0.1
+    """The heartbeat age that makes a service silent when the profile does not say, s: one
+    beat period and `BEAT_LATENESS_S` (0.25 s at 10 Hz on one host, 0.2 s at 20 Hz across
+    hosts): a beat may come 0.15 s late before its service is judged, as with 20 Hz beats
+    and the 0.2 s of before."""
+    return period_s + BEAT_LATENESS_S
+
+
+def resolve_heartbeat_timeout_s(configured_s: float | None, period_s: float) -> float:
+    """The heartbeat time-out in force, s: the profile's (`configured_s`) or the default for
+    beats every `period_s`.
+
+    Raises:
+        SupervisorConfigError: a configured time-out shorter than one period and
+            `MIN_BEAT_LATENESS_S` (every service would look silent between two beats).
+    """
+    timeout_s = configured_s or default_heartbeat_timeout_s(period_s)
+    if timeout_s < period_s + MIN_BEAT_LATENESS_S:
+        raise SupervisorConfigError(
+            f"invalid [services.supervisor.config]: heartbeat_timeout_s = {timeout_s:g} s is shorter than one "
+            f"heartbeat period ({period_s:g} s) and {MIN_BEAT_LATENESS_S:g} s: every service would look silent "
+            f"(omit it for the default, {default_heartbeat_timeout_s(period_s):g} s)")
+    return timeout_s
 
 
 class Watchdog:

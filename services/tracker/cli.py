@@ -53,7 +53,10 @@ def _config(args: argparse.Namespace, base: dict) -> TrackerConfig:
         values["sensor"] = args.sensor
     if getattr(args, "publish_depth", False):
         values["publish_depth"] = True
-    sim = dict(values.get("sim_kinect") or {})
+    sim = values.get("sim_kinect") or {}
+    if not isinstance(sim, dict):
+        raise TrackerConfigError(f"invalid tracker config: sim_kinect must be a table, got {sim!r:.40}")
+    sim = dict(sim)
     if getattr(args, "posture", None) is not None:
         sim["posture"] = args.posture
     if getattr(args, "kinect_seed", None) is not None:

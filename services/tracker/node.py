@@ -121,26 +121,23 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
         last_status = None
         for _tick in node.loop(rate_hz):
             now = time.monotonic()
-            if not inputs.feed(feeder, now):
-                node.request_stop()
-                break
+            ended = not inputs.feed(feeder, now)  # a replay's end: its last frames still count
             det = pipe.detect_object()
             if det is not None:
                 object_pub.put(**object_fields(det, config.object_mass_kg))
-            if feeder.human:
+            if feeder.human or now - last_publish >= HEARTBEAT_S:
                 feeder.human.clear()
                 state = pipe.human_state(now)
-            elif now - last_publish >= HEARTBEAT_S:
-                state = pipe.human_state(now)
-            else:
-                continue
-            human_pub.put(**human_fields(state))
-            last_publish = now
-            status = (state.tracked, state.status)
-            if status != last_status:
-                log.info("human %s%s", "tracked" if state.tracked else "not tracked",
-                         f": {state.status}" if state.status else "")
-                last_status = status
+                human_pub.put(**human_fields(state))
+                last_publish = now
+                status = (state.tracked, state.status)
+                if status != last_status:
+                    log.info("human %s%s", "tracked" if state.tracked else "not tracked",
+                             f": {state.status}" if state.status else "")
+                    last_status = status
+            if ended:
+                node.request_stop()
+                break
         if isinstance(inputs, SimKinectInputs):
             log.info("simulated Kinect stopped", extra=kv(frames=inputs.frames, skipped=inputs.skipped,
                                                           failed=inputs.failed))

@@ -54,7 +54,6 @@ SERVICE_TOPIC = {
     "supervisor": "motion/goal",
     "planner": "planner/transfer",
     "tracker": "perception/human",
-    "kinect": "perception/skeleton",
     "recorder": "runtime/heartbeat",
 }
 DELAY_S, DROP_P, FLOOD_S, FLOOD_HZ, FREEZE_S = 0.3, 0.5, 2.0, 1000.0, 1.0

@@ -81,3 +81,32 @@ def test_tracker_process_publishes_human_and_object_and_survives_garbage_and_sil
             for p in pubs.values():
                 p.undeclare()
             session.close()
+
+
+def test_a_replay_ends_by_itself_after_publishing_its_last_frame(bus, make_node, tmp_path):
+    """`--replay FILE`: the tracker publishes from the file at its times and stops at its end;
+    the last skeleton's estimate is published before it stops (the tick that reaches the end
+    still counts)."""
+    from bus_schema.messages import SKELETON_JOINTS, Skeleton, SkeletonJoint
+    from services.tracker.replay import ReplayWriter
+
+    profile, router = bus
+    body = KinectSim(0).body.joints(np.array([0.7, -0.3, 0.2]))
+
+    def skeleton(k: int, hand_x_m: float) -> Skeleton:
+        joints = [SkeletonJoint(name=n, position_m=tuple(float(v) for v in (
+            (hand_x_m, -0.3, 0.2) if n == "right_hand" else body[n]))) for n in SKELETON_JOINTS]
+        return Skeleton(seq=k, stamp_ns=k, source="replay", tracked=True, user_id=1, joints=joints)
+
+    path = tmp_path / "three.trk"
+    with ReplayWriter(path) as writer:
+        for k, hand_x_m in enumerate((0.70, 0.71, 0.95)):  # the last frame's hand is far off
+            writer.write(0.2 + 0.1 * k, T.SKELETON, skeleton(k, hand_x_m))
+    node = make_node()
+    humans = node.subscribe(T.HUMAN, queue_size=1000)
+    with ServiceProcess("services.tracker", profile, name="tracker",
+                        args=["--replay", str(path), "--no-lag-correction"]) as proc:
+        assert proc.proc.wait(30) == 0, proc.log_text()
+    time.sleep(0.3)
+    raw_x = [rx.msg.hand_raw_position_m[0] for rx in humans.drain() if rx.msg.tracked]
+    assert raw_x and raw_x[-1] == pytest.approx(0.95), raw_x
