@@ -211,3 +211,34 @@ def router_zenoh_overrides(profile_overrides: dict[str, Any]) -> dict[str, Any]:
     if isinstance(scouting, dict):
         scouting.setdefault("delay", 0)
     return merged
+
+
+def skeleton_publishers(services: Sequence[ServiceSpec]) -> list[str]:
+    """The enabled services of a profile that publish `perception/skeleton` from a simulated
+    Kinect: the stand-alone ``services.sim_kinect`` (unless its config disables it) and a
+    tracker that renders its own (``sensor = "sim"``)."""
+    names = []
+    for spec in services:
+        if not spec.enabled:
+            continue
+        config = spec.config or {}
+        if spec.module == "services.sim_kinect" and config.get("enabled", True):
+            names.append(spec.name)
+        elif spec.module == "services.tracker" and config.get("sensor") == "sim":
+            names.append(spec.name)
+    return names
+
+
+def check_one_simulated_kinect(profile: Profile) -> None:
+    """Refuse a profile whose skeleton would come from two simulated Kinects (two bodies, two
+    noise streams on one key).
+
+    Raises:
+        ProfileError: naming both services and how to keep one.
+    """
+    from services.runtime.errors import ProfileError
+
+    names = skeleton_publishers(profile.services)
+    if len(names) > 1:
+        raise ProfileError(f"{profile.path}: {' and '.join(names)} would both render a simulated Kinect: keep one "
+                           "(disable the kinect service, or set [services.tracker.config] sensor = \"bus\")")

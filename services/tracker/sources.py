@@ -66,7 +66,8 @@ class SimKinectInputs:
         self.config = config
         self.sim = make_kinect_sim(config)
         self.joint_state = node.subscribe(T.JOINT_STATE, wake=False)
-        self.truth = node.subscribe(T.SIM_TRUTH, queue_size=1, wake=False)
+        # Only the handover scene follows the bridge's truth (the receiver's hand, the object).
+        self.truth = node.subscribe(T.SIM_TRUTH, queue_size=1, wake=False) if config.scene == "handover" else None
         self._skeleton_pub = node.publisher(T.SKELETON)
         self._truth_pub = node.publisher(T.KINECT_TRUTH)
         self._depth_pub = node.publisher(T.DEPTH) if publish_depth else None
@@ -96,7 +97,7 @@ class SimKinectInputs:
             self._warn.warning("joints", "joint state without Baxter's 7 right-arm joints: frame skipped",
                                skipped=self.skipped)
             return True
-        truth = self.truth.latest() if self.config.scene == "handover" else None
+        truth = self.truth.latest() if self.truth is not None else None
         scene = scene_input(self.config.scene, None if truth is None else truth.msg.receiver_hand_position_m,
                             None if truth is None else truth.msg.object_position_m)
         if self._t0_s is None:

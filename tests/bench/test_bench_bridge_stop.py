@@ -11,7 +11,7 @@ baseline / new. JSON: out/bench/bridge_stop.json.
 
 Also here: the CPU of one sim-bridge tick per state of the scripted handover (rest with the
 receiver, held still, transfer, moving empty, rest after a drop), this code against the last
-commit before the cheaper tick, in one process (`tests.unit.bridge.tick_cpu`; offline, no bus).
+commit before the cheaper tick, in one process (`tests.bench.bridge_tick_cpu`; offline, no bus).
 JSON: out/bench/bridge_tick_cpu.json.
 """
 
@@ -25,7 +25,7 @@ from services.runtime import ServiceNode
 from services.runtime.testing import BusRouter, ServiceProcess, loopback_profile, wait_alive
 from tests.bench._report import save, summarize, table
 from tests.integration.test_bridge_stop import run_trials, stop_ticks_from_log
-from tests.unit.bridge import tick_cpu
+from tests.bench import bridge_tick_cpu as tick_cpu
 
 pytestmark = [pytest.mark.bench, pytest.mark.timeout(600)]
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -35,3 +36,26 @@ def test_a_recording_dir_that_is_a_file_is_refused(tmp_path):
     out = _up("--recording-dir", str(blocker / "sub"))
     assert out.returncode == 2 and "cannot write a recording there" in out.stderr, out.stderr
     assert blocker.read_text() == "x"
+
+
+def test_a_profile_with_two_simulated_kinects_is_refused_before_anything_starts(tmp_path):
+    """The default profile renders the Kinect in the tracker; adding the stand-alone Kinect
+    service too would put two bodies on perception/skeleton."""
+    sim = (Path(__file__).resolve().parents[3] / "deploy" / "sim.toml").read_text()
+    assert 'sensor = "sim"' in sim
+    both = tmp_path / "both.toml"
+    both.write_text(sim + '\n[services.kinect]\nmodule = "services.sim_kinect"\n'
+                    '[services.kinect.config]\nscene = "handover"\n')
+    out = _up("--profile", str(both), "--recording-dir", str(tmp_path / "rec"))
+    assert out.returncode == 2, out.stderr + out.stdout
+    assert "tracker and kinect would both render a simulated Kinect" in out.stderr, out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1 and "started" not in out.stdout
+    assert not (tmp_path / "rec").exists()  # nothing made
+
+
+def test_skeleton_publishers_of_the_shipped_profiles():
+    from services.launcher.core import skeleton_publishers
+    from services.runtime.profile import load_profile_file
+
+    assert skeleton_publishers(load_profile_file("sim").services) == ["tracker"]
+    assert skeleton_publishers(load_profile_file("multihost").services) == []

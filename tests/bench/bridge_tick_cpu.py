@@ -12,7 +12,7 @@ object, the arm holds still), ``held_still`` (b, the object in the gripper befor
 transfer), ``transfer`` (c), ``moving_empty`` (d), and ``rest_dropped`` (the object fell).
 The two versions take turns round by round, and every tick's published bytes are compared.
 
-Run: python -m tests.unit.bridge.tick_cpu [--rev 9acd660] [--rounds 5] [--period-s 0.01]
+Run: python -m tests.bench.bridge_tick_cpu [--rev 9acd660] [--rounds 5] [--period-s 0.01]
 """
 
 from __future__ import annotations
