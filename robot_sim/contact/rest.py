@@ -4,9 +4,10 @@ A plant *rests* when one whole step (`robot_sim.contact.scalar_step.run_steps`) 
 variable of its physics bit for bit as it was: object position, velocity and acceleration,
 stick/slip and pad state, the hand's position and velocity, the forces (pads, receiver,
 wrist load), the mode, the actuator's finger and target. That happens, e.g., while the
-object sits in the gripper before the receiver's contact (the placeholder receiver is far
-away, the finger settled). The next step reads nothing else than that state, its reference
-sample and, every 40 ms, the latched grip target; so while
+object sits in the gripper before the receiver's contact (until then the handover scene's
+plant has the `absent` receiver, whose hand is far away; the finger has settled). The
+next step reads nothing else than that state, its reference sample and, every 40 ms, the
+latched grip target; so while
 
 - the receiver's reference sample is the same (bit-identical consecutive samples share one
   tuple in the plant's reference cache, so this is an identity check),

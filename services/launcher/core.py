@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from services.runtime.errors import ProfileError
 from services.runtime.profile import Profile, ServiceSpec
 
 RECORDER = "recorder"
@@ -236,8 +237,6 @@ def check_one_simulated_kinect(profile: Profile) -> None:
     Raises:
         ProfileError: naming both services and how to keep one.
     """
-    from services.runtime.errors import ProfileError
-
     names = skeleton_publishers(profile.services)
     if len(names) > 1:
         raise ProfileError(f"{profile.path}: {' and '.join(names)} would both render a simulated Kinect: keep one "

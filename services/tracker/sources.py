@@ -24,6 +24,7 @@ from typing import Any
 from bus_schema import topics as T
 from services.runtime.logs import RateLimitedLog
 from services.sim_kinect.config import KinectConfig
+from services.sim_kinect.core import arm_posture_rad, make_kinect_sim, scene_input, truth_fields
 from services.tracker.replay import ReplayItem, read_replay
 
 log = logging.getLogger("tracker")
@@ -61,8 +62,6 @@ class SimKinectInputs:
     """
 
     def __init__(self, config: KinectConfig, node: Any, publish_depth: bool = False) -> None:
-        from services.sim_kinect.core import make_kinect_sim  # loads Baxter's model: ~1 s
-
         self.config = config
         self.sim = make_kinect_sim(config)
         self.joint_state = node.subscribe(T.JOINT_STATE, wake=False)
@@ -77,8 +76,6 @@ class SimKinectInputs:
         self.frames = self.skipped = self.failed = 0
 
     def feed(self, feeder: Any, now_s: float) -> bool:
-        from services.sim_kinect.core import arm_posture_rad, scene_input, truth_fields
-
         if not self.config.enabled:  # ``enabled = false``: the camera is off, nothing to see
             return True
         state = None

@@ -30,7 +30,7 @@ from bus_schema import topics
 from bus_schema.codec import encode_for
 from tests.unit.bridge import handover_script as hs
 
-REPO = Path(__file__).resolve().parents[3]
+REPO = Path(__file__).resolve().parents[2]
 #: The last commit before the cheaper tick.
 BASELINE_REV = "9acd660"
 _MODULES = ("services/bridge/backend.py", "services/bridge/handover_backend.py", "robot_sim/handover_scene.py")
@@ -87,15 +87,7 @@ class Loop:
 
     def tick(self, tick: hs.Tick) -> None:
         b = self.backend
-        if tick.gap_s > 0.0:
-            b.catch_up(tick.gap_s)
-        b.read()
-        b.gripper_command(tick.grip_n)
-        if tick.target_rad is None:
-            b.hold()
-        else:
-            b.command(tick.target_rad, tick.feedforward_rad_s)
-        b.step(tick.dt_s)
+        hs.apply(b, tick)
         r = b.read()
         self.state_pub.put(names=list(b.joint_names), position_rad=r.position_rad.tolist(),
                            velocity_rad_s=r.velocity_rad_s.tolist(), effort_nm=r.effort_nm.tolist(),

@@ -163,10 +163,11 @@ def empty_moves(p: Poses, cycles: int = 1) -> Iterator[Tick]:
 
 
 def apply(backend: HandoverSimBackend, tick: Tick) -> None:
-    """Run one tick on `backend` the way the bridge loop does (catch-up, grip, command or
-    hold, step)."""
+    """Run one tick on `backend` the way the bridge loop does (catch-up, read, grip, command
+    or hold, step)."""
     if tick.gap_s > 0.0:
         backend.catch_up(tick.gap_s)
+    backend.read()  # the loop reads the arm before it acts (no side effect: copies)
     backend.gripper_command(tick.grip_n)
     if tick.target_rad is None:
         backend.hold()
