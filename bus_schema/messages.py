@@ -524,8 +524,8 @@ class EpisodeSummary(Message, frozen=True, kw_only=True):
 
 
 class Heartbeat(Message, frozen=True, kw_only=True):
-    """A service's main loop is running (20 Hz from every service; the header's `source`
-    names the service). A frozen process stops beating; its liveliness token stays up until
+    """A service's main loop is running (10 Hz from every service on one host, 20 Hz across
+    hosts; the header's `source` names the service). A frozen process stops beating; its liveliness token stays up until
     the link lease expires, so the supervisor watches both.
 
     Attributes:
@@ -576,7 +576,8 @@ class SimTruth(Message, frozen=True, kw_only=True):
 
 class KinectTruth(Message, frozen=True, kw_only=True):
     """Ground truth of the body the simulated Kinect rendered in its latest frame (never
-    used for control; for tests and review), 30 Hz.
+    used for control; for tests and review): 30 Hz while the body moves, 10 Hz while it is
+    still.
 
     Attributes:
         hand_position_m: true position of the receiver's right (receiving) hand, `base` frame.

@@ -66,7 +66,7 @@ SUPERVISOR_STATE = _T("supervisor/state", m.SupervisorState, "state", 10, "super
 EPISODE = _T("supervisor/episode", m.EpisodeSummary, "state", 0, "supervisor", "episode summary")
 HEARTBEAT = _T("runtime/heartbeat", m.Heartbeat, "state", 10, "every service", "process running (20 Hz across hosts)")
 SIM_TRUTH = _T("sim/truth", m.SimTruth, "state", 100, "bridge", "simulator ground truth (10 Hz at rest)")
-KINECT_TRUTH = _T("sim/kinect_truth", m.KinectTruth, "state", 30, "tracker or kinect", "simulated Kinect's body truth")
+KINECT_TRUTH = _T("sim/kinect_truth", m.KinectTruth, "state", 30, "tracker or kinect", "body truth (10 Hz still)")
 del _T
 
 TOPICS: tuple[Topic, ...] = (

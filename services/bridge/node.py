@@ -11,8 +11,8 @@ joint state with the brake engaged is published within about a millisecond. A ne
 supervisor episode resets a simulated scene.
 
 The simulated Kinect is not here (it renders in the tracker, or as its own service), so its
-depth frames do not delay this loop through the GIL. `sim/truth` goes out when it changed,
-or every `TRUTH_REPEAT_S` at rest.
+depth frames do not delay this loop through the GIL. `sim/truth` goes out when it changed
+by more than 1 nm (`settled_key`), or every `TRUTH_REPEAT_S` at rest.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from services.bridge.config import BridgeConfig
 from services.bridge.core import CommandGate, StopBrake
 from services.bridge.ticker import StopTicker
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
-from services.runtime.repeat import RepeatGate
+from services.runtime.repeat import RepeatGate, settled_key
 
 log = logging.getLogger(__name__)
 
@@ -72,7 +72,7 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
         truth_gate = RepeatGate(TRUTH_REPEAT_S)
 
         def publish_extra(suffix: str, fields: dict[str, Any]) -> None:
-            if suffix == topics.SIM_TRUTH.suffix and not truth_gate.due(tuple(fields.values()), time.monotonic()):
+            if suffix == topics.SIM_TRUTH.suffix and not truth_gate.due(settled_key(fields.values()), time.monotonic()):
                 return
             pub = extra_pubs.get(suffix)
             if pub is None:

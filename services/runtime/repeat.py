@@ -6,14 +6,39 @@ the idle stack, each crossing the router and woken in the bridge and the recorde
 bridge keeps acting on the last command until its time-out (0.2 s, `command_timeout_s`),
 so a copy every `HOLD_REPEAT_S` keeps it fresh with four copies to spare. A command that
 changed, or one the controller stepped, goes out at once.
+
+State that is only sent on a change (the bridge's `sim/truth`, the simulated Kinect's
+`sim/kinect_truth`) is compared by `settled_key`: a resting simulation still dithers in its
+last bits (the receiver's hand holding the object moves by 1e-19 m, its velocity by 1e-17
+m/s), and compared bit for bit such a message "changed" at every tick.
 """
 
 from __future__ import annotations
 
-from collections.abc import Hashable
+import math
+from collections.abc import Hashable, Iterable
 
 #: Period of the copies of an unchanged command, s (the bridge's command time-out is 0.2 s).
 HOLD_REPEAT_S = 0.05
+
+
+#: Resolution of `settled_key`: 1 nm, 1 nm/s, 1 nN (far below any sensor or plot of the
+#: stack; far above the 1e-15 rounding dither of a resting simulation).
+SETTLED_RESOLUTION = 1e-9
+
+
+def settled_key(values: Iterable[object], resolution: float = SETTLED_RESOLUTION) -> tuple:
+    """A hashable key of message field values with every finite float rounded to a multiple
+    of `resolution` (nested tuples and lists too); two keys differ when some value changed by
+    more than about `resolution`. Non-finite floats, strings, bools and ints are kept as they are."""
+    def key(value: object) -> object:
+        if type(value) is float:
+            steps = value / resolution
+            return round(steps) if math.isfinite(steps) else value  # inf, NaN, or beyond 1e299
+        if isinstance(value, (tuple, list)):
+            return tuple(key(v) for v in value)
+        return value
+    return tuple(key(v) for v in values)
 
 
 class RepeatGate:

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from robot_sim.baxter import RIGHT_ARM_JOINTS
+from services.runtime.repeat import RepeatGate, settled_key
 from services.sim_kinect.config import KinectConfig
 
 #: Bound of the `Vec3M` bus fields, m.
@@ -83,11 +84,29 @@ def _vec(v: np.ndarray) -> tuple[float, float, float]:
     return (float(c[0]), float(c[1]), float(c[2]))
 
 
+#: `sim/kinect_truth` goes out when the body moved by more than 1 nm (`settled_key`) or this
+#: often, s: a still receiver's truth is not repeated 30 times a second to the recorder.
+KINECT_TRUTH_REPEAT_S = 0.1
+
+
 def truth_fields(frame: Any) -> dict[str, tuple[float, float, float]]:
     """`bus_schema.messages.KinectTruth` fields of a `robot_sim.kinect.KinectFrame`: the true
     right hand and torso of the body it rendered (m, `base`)."""
     return {"hand_position_m": _vec(frame.truth.right_hand_m),
             "torso_position_m": _vec(frame.truth.joints_m["torso"])}
+
+
+class TruthGate:
+    """Which frames' `sim/kinect_truth` go out: those whose body moved by more than 1 nm
+    (`settled_key`), and one every `KINECT_TRUTH_REPEAT_S` of a still body."""
+
+    def __init__(self, repeat_s: float = KINECT_TRUTH_REPEAT_S) -> None:
+        self._gate = RepeatGate(repeat_s)
+
+    def due(self, frame: Any, now_s: float) -> dict[str, tuple[float, float, float]] | None:
+        """The truth fields of `frame` if they must be published at `now_s` (monotonic s), else None."""
+        fields = truth_fields(frame)
+        return fields if self._gate.due(settled_key(fields.values()), now_s) else None
 
 
 class FrameClock:

@@ -17,7 +17,7 @@ import time
 from bus_schema import topics
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.sim_kinect.config import KinectConfig
-from services.sim_kinect.core import arm_posture_rad, make_kinect_sim, scene_input, truth_fields
+from services.sim_kinect.core import TruthGate, arm_posture_rad, make_kinect_sim, scene_input
 
 log = logging.getLogger(__name__)
 
@@ -38,6 +38,7 @@ def run_kinect(profile: Profile, config: KinectConfig) -> int:
         skeleton_pub = node.publisher(topics.SKELETON)
         depth_pub = node.publisher(topics.DEPTH)
         truth_pub = node.publisher(topics.KINECT_TRUTH)
+        truth_gate = TruthGate()
         if sim is None:
             log.info("simulated Kinect disabled ([services.kinect.config] enabled = false): publishing nothing")
             while not node.should_stop:
@@ -76,7 +77,9 @@ def run_kinect(profile: Profile, config: KinectConfig) -> int:
                     continue
                 skeleton_pub.put(**frame.skeleton_fields)
                 depth_pub.put(**frame.depth_fields)
-                truth_pub.put(**truth_fields(frame))
+                truth_now = truth_gate.due(frame, time.monotonic())
+                if truth_now is not None:
+                    truth_pub.put(**truth_now)
                 frames += 1
         finally:
             log.info("kinect stopped", extra=kv(frames=frames, skipped=skipped, failed=failed))

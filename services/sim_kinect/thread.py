@@ -24,7 +24,7 @@ import numpy as np
 from bus_schema import topics
 from services.runtime import RateLimitedLog
 from services.sim_kinect.config import KinectConfig
-from services.sim_kinect.core import FrameClock, make_kinect_sim, truth_fields
+from services.sim_kinect.core import FrameClock, TruthGate, make_kinect_sim
 
 log = logging.getLogger(__name__)
 
@@ -43,6 +43,7 @@ class KinectThread:
         self._skeleton = node.publisher(topics.SKELETON)
         self._depth = node.publisher(topics.DEPTH)
         self._truth = node.publisher(topics.KINECT_TRUTH)
+        self._truth_gate = TruthGate()
         self._stop = threading.Event()
         self._lock = threading.Lock()
         self._q_arm: np.ndarray | None = None
@@ -80,7 +81,9 @@ class KinectThread:
                     frame = self.sim.step(time.monotonic() - t0, q, object_position_m=obj, right_hand_m=hand)
                     self._skeleton.put(**frame.skeleton_fields)
                     self._depth.put(**frame.depth_fields)
-                    self._truth.put(**truth_fields(frame))
+                    truth_now = self._truth_gate.due(frame, time.monotonic())
+                    if truth_now is not None:
+                        self._truth.put(**truth_now)
                     self.frames += 1
                 except Exception as exc:  # noqa: BLE001 - a bad frame must not kill the host
                     self._errors.warning("kinect", f"simulated Kinect frame failed: {exc!r}")

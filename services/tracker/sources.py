@@ -5,7 +5,8 @@
 - `SimKinectInputs`: the simulated Kinect rendered in the tracker's own process
   (``sensor = "sim"``, the default simulation profile). Each tick renders one frame from the
   newest joint state and `sim/truth`, feeds it to the pipeline directly and publishes the
-  skeleton and `sim/kinect_truth` for the recorder (the depth image too only with
+  skeleton and `sim/kinect_truth` for the recorder (the truth when the body moved, or every
+  0.1 s when it is still, `TruthGate`; the depth image too only with
   ``publish_depth``): a 150 kB image 30 times a second no longer crosses the bus to reach its
   only reader, and the stack has one process fewer (issue 16);
 - `ReplayInputs`: a replay file, paced in real time.
@@ -24,7 +25,7 @@ from typing import Any
 from bus_schema import topics as T
 from services.runtime.logs import RateLimitedLog
 from services.sim_kinect.config import KinectConfig
-from services.sim_kinect.core import arm_posture_rad, make_kinect_sim, scene_input, truth_fields
+from services.sim_kinect.core import TruthGate, arm_posture_rad, make_kinect_sim, scene_input
 from services.tracker.replay import ReplayItem, read_replay
 
 log = logging.getLogger("tracker")
@@ -69,6 +70,7 @@ class SimKinectInputs:
         self.truth = node.subscribe(T.SIM_TRUTH, queue_size=1, wake=False) if config.scene == "handover" else None
         self._skeleton_pub = node.publisher(T.SKELETON)
         self._truth_pub = node.publisher(T.KINECT_TRUTH)
+        self._truth_gate = TruthGate()  # a still body's truth: 10 copies a second, not 30
         self._depth_pub = node.publisher(T.DEPTH) if publish_depth else None
         self._warn = RateLimitedLog(log, 5.0)
         self._t0_s: float | None = None  # the scripted reach's clock starts at the first frame
@@ -107,7 +109,9 @@ class SimKinectInputs:
             self._warn.warning("render", f"simulated Kinect frame failed: {exc!r}", failed=self.failed)
             return True
         skeleton = self._skeleton_pub.put(**frame.skeleton_fields)
-        self._truth_pub.put(**truth_fields(frame))
+        truth_now = self._truth_gate.due(frame, now_s)
+        if truth_now is not None:
+            self._truth_pub.put(**truth_now)
         if self._depth_pub is not None:
             depth = self._depth_pub.put(**frame.depth_fields)
         else:

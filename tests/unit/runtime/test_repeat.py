@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from services.runtime.repeat import HOLD_REPEAT_S, RepeatGate
+from services.runtime.repeat import HOLD_REPEAT_S, SETTLED_RESOLUTION, RepeatGate, settled_key
 
 
 def test_an_unchanged_command_goes_out_once_per_repeat_period():
@@ -39,3 +39,29 @@ def test_the_bridge_gets_a_copy_well_inside_its_command_timeout():
 def test_a_non_positive_period_is_refused(bad):
     with pytest.raises(ValueError, match="repeat_s"):
         RepeatGate(bad)
+
+
+def test_settled_key_ignores_a_rounding_dither_and_sees_a_nanometre():
+    # The receiver holding the object at rest: velocities dither by 1e-17 m/s from tick to tick.
+    a = {"v": (4.163336342344374e-15, 0.0, 6.040920286415252e-17), "held_by": "receiver", "dropped": False}
+    b = {"v": (4.163336342344374e-15, 0.0, 5.929897983952736e-17), "held_by": "receiver", "dropped": False}
+    assert settled_key(a.values()) == settled_key(b.values())
+    assert tuple(a.values()) != tuple(b.values())  # bit for bit they differ
+    moved = {**a, "v": (4.163336342344374e-15, 0.0, 3 * SETTLED_RESOLUTION)}
+    assert settled_key(moved.values()) != settled_key(a.values())
+    assert settled_key([(0.1,), "receiver"]) != settled_key([(0.1,), "none"])
+    assert settled_key([True]) != settled_key([False])
+
+
+def test_settled_key_keeps_non_finite_values_apart():
+    assert settled_key([float("inf")]) != settled_key([1e300])
+    assert settled_key([float("-inf")]) != settled_key([float("inf")])
+    nan_key = settled_key([float("nan")])
+    assert isinstance(nan_key[0], float) and nan_key[0] != nan_key[0]  # NaN: always "changed"
+
+
+def test_a_dithering_value_is_sent_once_per_repeat_period():
+    gate = RepeatGate(0.095)  # 100 Hz ticks: a copy every tenth (0.1 s is 10 ticks, bar rounding)
+    dither = (6.040920286415252e-17, 6.151942588877767e-17, 5.929897983952736e-17)
+    sent = [k for k in range(100) if gate.due(settled_key([(0.0, 0.0, dither[k % 3])]), k * 0.01)]
+    assert sent == list(range(0, 100, 10))

@@ -11,7 +11,8 @@ from robot_sim.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from robot_sim.kinect.receiver import BodySize, ReceiverBody
 from services.sim_kinect.cli import main
 from services.sim_kinect.config import KinectConfig, parse_config
-from services.sim_kinect.core import FrameClock, arm_posture_rad, make_kinect_sim, scene_input, truth_fields
+from services.sim_kinect.core import (FrameClock, TruthGate, arm_posture_rad, make_kinect_sim, scene_input,
+                                      truth_fields)
 from services.sim_kinect.errors import KinectConfigError
 
 HOME = np.array(RIGHT_ARM_HOME_RAD)
@@ -56,6 +57,24 @@ def test_truth_fields_are_the_rendered_bodys_hand_and_torso_and_fit_the_bus():
     from bus_schema import decode, encode_for
 
     assert decode(topics.KINECT_TRUTH, encode_for(topics.KINECT_TRUTH, msg)) == msg
+
+
+def test_a_still_body_truth_goes_out_ten_times_a_second_and_a_moved_one_at_once():
+    sim = make_kinect_sim(KinectConfig())
+    body = ReceiverBody(BodySize(1.75, "standing"))
+    hand = body.rest_hand_m
+    gate = TruthGate()
+    # Frames 33.5 ms apart (30 Hz, a little late) for one second, the body still: frames
+    # 0, 3, 6, ... (every 0.1 s) go out.
+    frame = sim.step(0.0, HOME, right_hand_m=hand)
+    sent = [k for k in range(30) if gate.due(frame, k * 0.0335) is not None]
+    assert sent == list(range(0, 30, 3))
+    # The hand moved by 1 mm: the next frame goes out, with the new hand.
+    moved = sim.step(1.0, HOME, right_hand_m=hand + np.array([0.0, 0.0, 1e-3]))
+    fields = gate.due(moved, 1.0 + 1 / 30.0)
+    assert fields is not None
+    np.testing.assert_allclose(fields["hand_position_m"], truth_fields(moved)["hand_position_m"])
+    assert gate.due(moved, 1.0 + 2 / 30.0) is None
 
 
 def test_frame_clock_keeps_the_rate_and_does_not_burst_after_a_late_frame():
