@@ -32,6 +32,10 @@ class Topic:
             and docs.
         publisher: the service that publishes it.
         description: one line for the docs.
+        per_sender: each sender publishes on its own key, ``<prefix>/<suffix>/<sender>``
+            (`sender_key`), so that the bus's access control can grant a key to one service
+            and a reader knows the sender from the key (issue 17); readers subscribe to
+            ``<prefix>/<suffix>/*`` (`key`). A message's ``source`` must name the key's sender.
     """
 
     suffix: str
@@ -40,10 +44,16 @@ class Topic:
     nominal_rate_hz: float
     publisher: str
     description: str
+    per_sender: bool = False
 
     def key(self, prefix: str = DEFAULT_PREFIX) -> str:
-        """Full key expression under `prefix`."""
-        return f"{prefix}/{self.suffix}"
+        """Full key expression under `prefix` (for a `per_sender` topic, the one that
+        matches every sender's key)."""
+        return f"{prefix}/{self.suffix}/*" if self.per_sender else f"{prefix}/{self.suffix}"
+
+    def sender_key(self, sender: str, prefix: str = DEFAULT_PREFIX) -> str:
+        """The key `sender` publishes on: its own below a `per_sender` topic, else `key`."""
+        return f"{prefix}/{self.suffix}/{sender}" if self.per_sender else self.key(prefix)
 
 
 _T = Topic
@@ -64,7 +74,8 @@ GRIPPER_STATE = _T("gripper/state", m.GripperState, "state", 100, "gripper", "gr
 GRIPPER_RELEASE = _T("gripper/release", m.ReleaseEvent, "safety", 0, "gripper", "release event")
 SUPERVISOR_STATE = _T("supervisor/state", m.SupervisorState, "state", 10, "supervisor", "handover phase")
 EPISODE = _T("supervisor/episode", m.EpisodeSummary, "state", 0, "supervisor", "episode summary")
-HEARTBEAT = _T("runtime/heartbeat", m.Heartbeat, "state", 10, "every service", "process running (20 Hz across hosts)")
+HEARTBEAT = _T("runtime/heartbeat", m.Heartbeat, "state", 10, "every service", "process running (20 Hz across hosts)",
+               per_sender=True)
 SIM_TRUTH = _T("sim/truth", m.SimTruth, "state", 100, "bridge", "simulator ground truth (10 Hz at rest)")
 KINECT_TRUTH = _T("sim/kinect_truth", m.KinectTruth, "state", 30, "tracker or kinect", "body truth (10 Hz still)")
 del _T
@@ -102,8 +113,25 @@ def alive_key(service: str, prefix: str = DEFAULT_PREFIX) -> str:
 
 
 def topic_for_key(key: str, prefix: str = DEFAULT_PREFIX) -> Topic | None:
-    """The topic whose full key is `key` under `prefix`, or None."""
+    """The topic whose full key is `key` under `prefix` (a sender's own key of a
+    `per_sender` topic included), or None."""
     head = prefix + "/"
     if not key.startswith(head):
         return None
-    return TOPICS_BY_SUFFIX.get(key[len(head) :])
+    suffix = key[len(head) :]
+    topic = TOPICS_BY_SUFFIX.get(suffix)
+    if topic is not None:
+        return None if topic.per_sender else topic
+    parent, _, sender = suffix.rpartition("/")
+    topic = TOPICS_BY_SUFFIX.get(parent)
+    return topic if topic is not None and topic.per_sender and sender_name_ok(sender) else None
+
+
+def sender_of_key(key: str) -> str:
+    """The sender named by the last chunk of a `per_sender` topic's key."""
+    return key.rpartition("/")[2]
+
+
+def sender_name_ok(name: str) -> bool:
+    """A sender (service) name usable as one key chunk: non-empty, no wildcard or separator."""
+    return bool(name) and not any(c in name for c in "/*$?#")

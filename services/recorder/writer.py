@@ -48,7 +48,7 @@ from services.recorder import rerun_env  # noqa: F401  (before the first `import
 import numpy as np  # noqa: E402
 import rerun as rr  # noqa: E402
 
-from bus_schema import TOPICS, Topic, decode, messages as m, topics as bus_topics  # noqa: E402
+from bus_schema import TOPICS, Topic, decode, messages as m, topic_for_key, topics as bus_topics  # noqa: E402
 from bus_schema.codec import DecodeError  # noqa: E402
 from services.recorder.blueprint import blueprint, static_styles  # noqa: E402
 from services.recorder.bus_columns import bus_entity, bus_record_batch  # noqa: E402
@@ -174,6 +174,8 @@ class RecordingWriter:
     def handle(self, key: str, payload: bytes, receive_ns: int) -> None:
         """Queue one payload by its key (unknown keys and keys not recorded are counted)."""
         topic = self._by_key.get(key)
+        if topic is None and (owner := topic_for_key(key, self.prefix)) is not None and owner.per_sender:
+            topic = self._by_key.get(owner.key(self.prefix))  # a sender's own key
         if topic is not None:
             self.add(topic, payload, receive_ns)
         elif key in self._not_recorded:

@@ -29,6 +29,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from bus_schema import DEFAULT_PREFIX, MAX_PAYLOAD_BYTES
+from bus_schema.topics import HEARTBEAT
 from services.runtime.errors import ProfileError
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
@@ -155,18 +156,19 @@ class AccessControl:
     """The router's access control list (``[bus.access_control]``), deny by default.
 
     Every authenticated user may also declare its own liveliness token
-    (``{prefix}/alive/<user>``), watch and query the others', and publish the shared
-    heartbeat key; everything else needs a ``publish``/``subscribe``/``query`` entry.
+    (``{prefix}/alive/<user>``), watch and query the others', and publish its own heartbeat
+    (``{prefix}/runtime/heartbeat/<user>``: a user can beat for nobody else, so a heartbeat's
+    sender is its login); everything else needs a ``publish``/``subscribe``/``query`` entry.
 
     Attributes:
         default_permission: ``deny`` (anything not allowed below is dropped) or ``allow``.
         users: user name → permissions.
-        common_publish: key expressions every user may put on (e.g. the heartbeat).
+        common_publish: key expressions every user may put on (none by default).
     """
 
     default_permission: str = "deny"
     users: dict[str, UserPermissions] = field(default_factory=dict)
-    common_publish: tuple[str, ...] = ("{prefix}/runtime/heartbeat",)
+    common_publish: tuple[str, ...] = ()
 
     def zenoh_dict(self, prefix: str) -> dict[str, Any]:
         """The ``access_control`` section of the router's Zenoh config."""
@@ -185,7 +187,7 @@ class AccessControl:
         policies: list[dict[str, Any]] = []
         for name, perms in sorted(self.users.items()):
             ids: list[str] = ["liveliness_watch", "liveliness_see"]
-            publish = expand(perms.publish) + expand(self.common_publish)
+            publish = expand(perms.publish) + [HEARTBEAT.sender_key(name, prefix)] + expand(self.common_publish)
             candidates = (
                 ("token", ["ingress"], ["liveliness_token"], [f"{prefix}/alive/{name}"]),
                 ("publish", ["ingress"], ["put", "delete"], publish),
@@ -248,7 +250,7 @@ def _parse_access_control(table: Any, path: Path) -> AccessControl | None:
             raise ProfileError(f"{path}: [bus.access_control.users.{name}] may hold publish, subscribe, query")
         users[name] = UserPermissions(
             **{k: _key_list(v, f"bus.access_control.users.{name}.{k}", path) for k, v in perms.items()})
-    common = _key_list(table.get("common_publish", ["{prefix}/runtime/heartbeat"]),
+    common = _key_list(table.get("common_publish", []),
                        "bus.access_control.common_publish", path)
     return AccessControl(default, users, common)
 

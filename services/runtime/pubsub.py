@@ -18,6 +18,7 @@ import zenoh
 from bus_schema import MAX_PAYLOAD_BYTES, Topic, decode, encode_for
 from bus_schema.codec import DecodeError
 from bus_schema.messages import Message
+from bus_schema.topics import sender_of_key
 from services.runtime.faults import FaultyPut
 from services.runtime.logs import RateLimitedLog
 from services.runtime.stamps import SENDER_CLOCK
@@ -124,6 +125,8 @@ class TypedSubscription(Generic[M]):
             if size > MAX_PAYLOAD_BYTES:  # refused before it is copied out of Zenoh
                 raise DecodeError(f"payload of {size} bytes exceeds the {MAX_PAYLOAD_BYTES}-byte cap")
             msg = decode(self.topic, sample.payload.to_bytes())
+            if self.topic.per_sender and msg.source != (sender := sender_of_key(str(sample.key_expr))):
+                raise DecodeError(f"source {msg.source!r} published on {sender!r}'s key")
         except DecodeError as exc:
             stats.rejected += 1
             self._bad_log.warning(
@@ -192,7 +195,7 @@ class TypedPublisher(Generic[M]):
 
     def __init__(self, node: ServiceNode, topic: Topic) -> None:
         self.topic = topic
-        self.key = topic.key(node.profile.prefix)
+        self.key = topic.sender_key(node.name, node.profile.prefix)
         self._source = node.name
         self._seq = 0
         self._lock = threading.Lock()

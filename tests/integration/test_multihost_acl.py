@@ -140,7 +140,9 @@ def test_heartbeats_from_every_service_and_the_supervisors_episode_pass(multihos
                     (str(s.key_expr), s.payload.to_bytes()))),
                 launcher.declare_subscriber(episode, lambda s: at_launcher.append(s.payload.to_bytes()))]
         time.sleep(0.3)  # let the router learn the subscribers
-        puts = [(user, heartbeat, f"beat-{user}") for user in USERS if user != "supervisor"]
+        puts = [(user, f"{heartbeat}/{user}", f"beat-{user}") for user in USERS if user != "supervisor"]
+        # A beat on another service's key (a stranger beating for the planner) is dropped.
+        puts += [("gripper", f"{heartbeat}/planner", "beat-for-planner-from-gripper")]
         puts += [("supervisor", episode, "episode-from-supervisor"), ("gripper", episode, "episode-from-gripper"),
                  ("kinect", skeleton, "skeleton-from-kinect"), ("bridge", skeleton, "skeleton-from-bridge")]
         sessions = {user: open_session(profile, "client", timeout_s=5.0, user=user)
@@ -161,7 +163,9 @@ def test_heartbeats_from_every_service_and_the_supervisors_episode_pass(multihos
             for user, session in sessions.items():
                 if user != "supervisor":
                     session.close()
-        assert {k for k, p in at_supervisor if p.startswith(b"beat-")} == {heartbeat}
+        beat_keys = {k for k, p in at_supervisor if p.startswith(b"beat-")}
+        assert beat_keys == {f"{heartbeat}/{u}" for u in USERS if u != "supervisor"}
+        assert b"beat-for-planner-from-gripper" not in {p for _, p in at_supervisor}
         assert b"episode-from-gripper" not in at_launcher
         assert b"skeleton-from-bridge" not in {p for _, p in at_supervisor}
         for sub in subs:

@@ -41,7 +41,8 @@ def _first_series(suffix: str) -> str:
 
 def _flood(session: zenoh.Session, prefix: str) -> dict[str, list[int]]:
     """Publish every key at RATES_HZ for FLOOD_S; returns the stamps sent per key."""
-    pubs = {t.suffix: session.declare_publisher(t.key(prefix), congestion_control=zenoh.CongestionControl.BLOCK)
+    pubs = {t.suffix: session.declare_publisher(t.sender_key(SAMPLES[t.suffix].source, prefix),
+                                                congestion_control=zenoh.CongestionControl.BLOCK)
             for t in TOPICS}
     sent: dict[str, list[int]] = {t.suffix: [] for t in TOPICS}
     owed = dict.fromkeys(sent, 0.0)

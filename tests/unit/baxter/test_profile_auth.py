@@ -50,9 +50,11 @@ def test_router_gets_dictionary_and_deny_by_default_acl(tmp_path, monkeypatch):
     acl = router["access_control"]
     assert acl["enabled"] is True and acl["default_permission"] == "deny"
     rules = {r["id"]: r for r in acl["rules"]}
-    assert rules["supervisor_publish"]["key_exprs"] == ["handover/v1/motion/stop", "handover/v1/runtime/heartbeat"]
+    assert rules["supervisor_publish"]["key_exprs"] == ["handover/v1/motion/stop",
+                                                        "handover/v1/runtime/heartbeat/supervisor"]
     assert rules["supervisor_publish"]["flows"] == ["ingress"]
-    assert rules["recorder_receive"]["flows"] == ["egress"] and "recorder_publish" in rules  # heartbeat only
+    assert rules["recorder_receive"]["flows"] == ["egress"]
+    assert rules["recorder_publish"]["key_exprs"] == ["handover/v1/runtime/heartbeat/recorder"]  # its beat only
     assert rules["recorder_token"]["key_exprs"] == ["handover/v1/alive/recorder"]
     assert {p["subjects"][0] for p in acl["policies"]} == {"supervisor", "recorder"}
     client = zenoh_config_dict(profile, "client", user="supervisor")

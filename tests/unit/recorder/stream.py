@@ -112,5 +112,6 @@ def idle_stream(seconds: float, rates_hz: dict[str, float] | None = None, prefix
                 source = HEARTBEAT_SOURCES[n % len(HEARTBEAT_SOURCES)] if suffix == topics.HEARTBEAT.suffix else None
                 depth = depth_frames[n % len(depth_frames)] if depth_frames and suffix == topics.DEPTH.suffix else None
                 msg = message_at(suffix, t_s, n, t0_ns + int(t_s * 1e9) + len(out), source, depth)
-                out.append((t_s, TOPICS_BY_SUFFIX[suffix].key(prefix), encode_for(TOPICS_BY_SUFFIX[suffix], msg)))
+                topic = TOPICS_BY_SUFFIX[suffix]
+                out.append((t_s, topic.sender_key(msg.source, prefix), encode_for(topic, msg)))
     return out

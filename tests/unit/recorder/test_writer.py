@@ -10,7 +10,7 @@ import msgspec
 import numpy as np
 import pytest
 
-from bus_schema import encode_for, topics
+from bus_schema import encode_for, topic_for_key, topics
 from services.recorder.config import RecorderConfig
 from services.recorder.readback import entity_row_counts, read_component, read_scalars
 from services.recorder.writer import RecordingWriter
@@ -51,10 +51,11 @@ def test_default_recording_of_a_run_is_under_half_a_megabyte_per_second(tmp_path
     counts = entity_row_counts(out, include_static=False)
     sent: dict[str, int] = {}
     for _, key, _ in stream:
-        sent[key] = sent.get(key, 0) + 1
-    for key, n in sent.items():
-        assert counts[f"/bus/{key.removeprefix(PREFIX + '/')}"] == n, key
-    assert counts["/robot/joint_position"] == sent[topics.JOINT_STATE.key(PREFIX)]
+        suffix = topic_for_key(key, PREFIX).suffix  # every sender's heartbeat key: one entity
+        sent[suffix] = sent.get(suffix, 0) + 1
+    for suffix, n in sent.items():
+        assert counts[f"/bus/{suffix}"] == n, suffix
+    assert counts["/robot/joint_position"] == sent[topics.JOINT_STATE.suffix]
     wrench = [msgspec.msgpack.decode(p, type=topics.WRIST_WRENCH.type) for _, k, p in stream
               if k == topics.WRIST_WRENCH.key(PREFIX)]
     times, values = read_scalars(out, "/bus/sensors/wrist_wrench/force_n/1")["/bus/sensors/wrist_wrench/force_n/1"]
