@@ -45,6 +45,7 @@ from services.launcher.core import (
     start_order,
 )
 from services.launcher.logfiles import LogFiles, own_line
+from services.launcher.logins import RunLogins, child_env, start_run_logins
 from services.launcher.processes import Child, RouterProcess, emit, stdout_outlet
 from services.runtime import LivelinessWatcher, Profile, ServiceNode, open_session
 from services.runtime.errors import BusError, ServiceError
@@ -122,6 +123,8 @@ class Launcher:
         self.router_pid: int | None = None  # the watchers judge the delivery path's starvation too
         self.restarts: dict[str, int] = {s.name: 0 for s in self.specs}
         self.recording: Path | None = None
+        self.logins: RunLogins | None = None  # per-run bus logins (services.launcher.logins)
+        self.bus_profile = profile  # with the run's logins, for the launcher's own sessions
         self.logs = LogFiles(logs_dir(options.recording_dir, options.run_id))
         self.verbose = options.verbose
         self.stop_requested = threading.Event()
@@ -140,10 +143,10 @@ class Launcher:
 
     def _start(self, name: str) -> Child:
         spec = next(s for s in self.specs if s.name == name)
-        env = {ROUTER_PID_ENV: str(self.router_pid)} if self.router_pid else None
+        env = {**({ROUTER_PID_ENV: str(self.router_pid)} if self.router_pid else {}), **child_env(self.logins, name)}
         log = self.logs.outlet(name)  # None: no file, so every line goes to the console
         child = Child(name, service_command(spec, self.profile, self._extra_args(name, self.restarts[name])),
-                      self.width, env=env, nice=spec.nice, log=log, verbose=self.verbose or log is None)
+                      self.width, env=env or None, nice=spec.nice, log=log, verbose=self.verbose or log is None)
         child.start()
         self.children[name] = child
         return child
@@ -241,16 +244,22 @@ class Launcher:
         previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         t0 = time.monotonic()
         precompile_stack()
-        router_profile = replace(self.profile, zenoh_overrides=router_zenoh_overrides(self.profile.zenoh_overrides))
+        opts = self.options
+        self.logins, self.bus_profile, acl = start_run_logins(
+            self.profile, [s.name for s in self.specs], opts.recording_dir, opts.run_id, opts.job)
+        router_profile = replace(self.bus_profile, access_control=acl,
+                                 zenoh_overrides=router_zenoh_overrides(self.profile.zenoh_overrides))
         router = RouterProcess(json.dumps(zenoh_config_dict(router_profile, "router")), self.width)
         try:
             router.start()
             self.router_pid = router.pid
-            session = open_session(self.profile, "client", timeout_s=5.0, user="launcher")
+            session = open_session(self.bus_profile, "client", timeout_s=5.0, user="launcher")
         except (BusError, RuntimeError) as exc:
             for s, h in previous.items():
                 signal.signal(s, h)
             router.stop()
+            if self.logins is not None:
+                self.logins.remove()
             raise BusPortError(
                 f"cannot host the bus on {self.profile.endpoint} (is another handover-up running? "
                 f"use --port auto): {_without_source_locations(str(exc))}"
@@ -261,7 +270,7 @@ class Launcher:
         try:
             self._open_logs(router)
             say(f"bus on {self.profile.endpoint} (router pid {router.pid}, loopback only, "
-                f"prefix {self.profile.prefix})")
+                f"prefix {self.profile.prefix}" + (f", logins in {self.logins.directory}/)" if self.logins else ")"))
             if self.logs.error is None:
                 say(f"logs of every service: {self.logs.directory}/"
                     + ("" if self.verbose else " (--verbose prints them here too)"))
@@ -295,6 +304,8 @@ class Launcher:
             watcher.undeclare()
             session.close()
             router.stop()
+            if self.logins is not None:
+                self.logins.remove()
             for s, h in previous.items():
                 signal.signal(s, h)
         if self.failure and code == EXIT_OK:
@@ -336,7 +347,7 @@ class Launcher:
                                 "([services.supervisor]); use --job demo or check without one")
         episodes = self._episodes()
         self.episode_running = True
-        with ServiceNode("launcher", self.profile, install_signal_handlers=False) as node:
+        with ServiceNode("launcher", self.bus_profile, install_signal_handlers=False) as node:
             stopper = threading.Thread(target=lambda: (self.stop_requested.wait(), node.request_stop()),
                                        daemon=True)
             stopper.start()
@@ -368,7 +379,7 @@ class Launcher:
         from services.launcher.demo import run_demo
 
         self.episode_running = True
-        with ServiceNode("launcher", self.profile, install_signal_handlers=False) as node:
+        with ServiceNode("launcher", self.bus_profile, install_signal_handlers=False) as node:
             stopper = threading.Thread(target=lambda: (self.stop_requested.wait(), node.request_stop()),
                                        daemon=True)
             stopper.start()

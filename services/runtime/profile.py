@@ -23,6 +23,7 @@ endpoints on loopback only unless the profile sets ``bus.allow_non_loopback = tr
 from __future__ import annotations
 
 import json
+import os
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -191,6 +192,10 @@ class AccessControl:
             candidates = (
                 ("token", ["ingress"], ["liveliness_token"], [f"{prefix}/alive/{name}"]),
                 ("publish", ["ingress"], ["put", "delete"], publish),
+                # A declared publisher sends only once it knows of a matching subscriber; a
+                # subscription to a wildcard (every service's heartbeat) is wider than any one
+                # publish key, so the publisher is told of every subscription under the prefix.
+                ("see_subscribers", ["egress"], ["declare_subscriber"], [f"{prefix}/**"] if publish else []),
                 ("subscribe", ["ingress"], ["declare_subscriber"], expand(perms.subscribe)),
                 ("receive", ["egress"], ["put", "delete"], expand(perms.subscribe)),
                 ("query", ["ingress"], ["query", "declare_queryable"], expand(perms.query)),
@@ -270,6 +275,9 @@ class Profile:
         raw: the whole parsed document.
         auth: user/password authentication on the bus (``[bus.auth]``), or None.
         access_control: the router's access control list (``[bus.access_control]``), or None.
+        logins: ``per-run`` (``handover-up`` makes a login per service for each run, and a
+            service finds its own through ``HANDOVER_BUS_CREDENTIALS``:
+            `services.launcher.logins`) or ``off``.
     """
 
     path: Path | None
@@ -279,6 +287,7 @@ class Profile:
     zenoh_overrides: dict[str, Any] = field(default_factory=dict)
     auth: BusAuth | None = None
     access_control: AccessControl | None = None
+    logins: str = "off"
     services: tuple[ServiceSpec, ...] = ()
     launcher: dict[str, Any] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict)
@@ -454,6 +463,13 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
         raise ProfileError(f"{path}: bus.allow_non_loopback = true needs [bus.auth] (user/password per service)")
     if access_control is not None and auth is None:
         raise ProfileError(f"{path}: [bus.access_control] names users, so it needs [bus.auth]")
+    logins = bus.get("logins", "off")
+    if logins not in ("per-run", "off"):
+        raise ProfileError(f"{path}: bus.logins must be \"per-run\" or \"off\", not {logins!r}")
+    if logins == "per-run" and auth is not None:
+        raise ProfileError(f"{path}: bus.logins = \"per-run\" and [bus.auth] exclude each other")
+    if logins == "per-run" and os.environ.get(CREDENTIALS_ENV):
+        auth = BusAuth(Path(os.environ[CREDENTIALS_ENV]))  # a service of a run: its own login
     services = tuple(_as_spec(name, table, path) for name, table in services_table.items())
     _check_niced_services_are_report_only(services, path)
     return Profile(
@@ -464,6 +480,7 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
         zenoh_overrides=overrides,
         auth=auth,
         access_control=access_control,
+        logins=logins,
         services=services,
         launcher=dict(doc.get("launcher", {})),
         raw=doc,

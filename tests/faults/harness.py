@@ -32,15 +32,18 @@ import sys
 import tempfile
 import threading
 import time
+from dataclasses import replace
 from collections.abc import Iterator
 from pathlib import Path
 
 import psutil
 
 from bus_schema import DecodeError, decode, topics
+from services.launcher.logins import OBSERVER, login_profile
 from services.runtime import ServiceNode
+from services.runtime.node import open_session
 from services.runtime.faults import ARM_DIR_ENV_VAR, ENV_VAR, arm_file_name
-from services.runtime.profile import free_tcp_port
+from services.runtime.profile import BusAuth, free_tcp_port
 from services.runtime.testing import loopback_profile
 from tests.faults.invariants import FaultPlan, Injection, RunRecord
 from tests.faults.mutations import random_payloads, structured_payloads
@@ -126,7 +129,12 @@ def _flood(node: ServiceNode, plan: FaultPlan, stop: threading.Event, inj: Injec
     """Publish `garbage` on `plan.topic` at `plan.rate_hz` for `plan.duration_s` (bounded in
     rate and time)."""
     topic = topics.TOPICS_BY_SUFFIX[plan.topic or ""]
-    pub = node.publisher(topic)
+    # As the service itself (its own login: the worst case the bus's access control leaves).
+    auth = node.profile.auth
+    as_service = node.profile if auth is None else replace(node.profile, auth=BusAuth(
+        auth.credentials_file.parent / plan.service))
+    session = open_session(as_service, "client", timeout_s=10.0, user=plan.service)
+    pub = session.declare_publisher(topic.sender_key(plan.service, node.profile.prefix))
     rng = random.Random(hash(plan.label) & 0xFFFF)
     batch = 10
     period_s = batch / plan.rate_hz
@@ -135,11 +143,12 @@ def _flood(node: ServiceNode, plan: FaultPlan, stop: threading.Event, inj: Injec
     next_s = time.monotonic()
     while not stop.is_set() and time.monotonic() < end_s:
         for i in range(batch):
-            pub.put_raw(next(payloads))
+            pub.put(next(payloads))
         inj.sent += batch
         next_s += period_s
         time.sleep(max(0.0, next_s - time.monotonic()))
     inj.ended_s = time.monotonic()
+    session.close()
 
 
 def run_with_faults(plans: list[FaultPlan], receiver: str = "absent", seed: int = 0,
@@ -169,7 +178,8 @@ def run_with_faults(plans: list[FaultPlan], receiver: str = "absent", seed: int 
     armed: list[tuple[Path, float | None]] = []
     deadline = time.monotonic() + run_timeout_s
     try:
-        node = ServiceNode("faultprobe", profile, install_signal_handlers=False, connect_timeout_s=30.0)
+        observer = login_profile(profile, workdir, "fault", OBSERVER, timeout_s=30.0)  # the run's own logins
+        node = ServiceNode(OBSERVER, observer, install_signal_handlers=False, connect_timeout_s=30.0)
         node.open()
         subs = {
             "states": node.subscribe(topics.SUPERVISOR_STATE, 100_000),

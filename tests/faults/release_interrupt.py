@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from bus_schema import topics
+from services.launcher.logins import login_profile
 from services.runtime import ServiceNode
 from services.runtime.profile import free_tcp_port
 from services.runtime.testing import loopback_profile
@@ -77,7 +78,9 @@ def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 
     samples: list[ReleaseSample] = []
     node: ServiceNode | None = None
     try:
-        node = ServiceNode("releaseprobe", profile, install_signal_handlers=False, connect_timeout_s=30.0)
+        # The release event comes as from the gripper, with its login of the run.
+        node = ServiceNode("gripper", login_profile(profile, workdir, f"release-bench-{port}", "gripper"),
+                           install_signal_handlers=False, connect_timeout_s=30.0)
         node.open()
         states = node.subscribe(topics.SUPERVISOR_STATE, 10_000)
         joints = node.subscribe(topics.JOINT_STATE, 10_000)

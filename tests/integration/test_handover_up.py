@@ -17,6 +17,7 @@ import pytest
 
 from bus_schema import topics
 from services.recorder.readback import read_scalars
+from services.launcher.logins import OBSERVER, login_profile
 from services.runtime import ServiceNode
 from services.runtime.profile import load_profile_file
 from services.runtime.testing import free_tcp_port, loopback_profile, wait_until
@@ -67,7 +68,8 @@ def test_demo_moves_the_arm_and_the_recording_holds_the_motion(tmp_path):
     published: list = []
     node = None
     try:
-        node = ServiceNode("observer", profile, install_signal_handlers=False, connect_timeout_s=20)
+        node = ServiceNode(OBSERVER, login_profile(profile, tmp_path, "t", OBSERVER), install_signal_handlers=False,
+                           connect_timeout_s=20)
         node.open()
         states = node.subscribe(topics.JOINT_STATE, queue_size=100_000)
         out = _finish(proc, 60)

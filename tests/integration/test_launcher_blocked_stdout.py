@@ -40,6 +40,7 @@ import psutil
 import pytest
 
 from bus_schema import topics
+from services.launcher.logins import OBSERVER, login_profile
 from services.runtime import ServiceNode
 from services.runtime.profile import free_tcp_port, load_profile_file
 from services.runtime.testing import interrupt_then_kill
@@ -227,7 +228,8 @@ def _run_blocked(tmp_path: Path) -> Observed:
     node = None
     failure: AssertionError | None = None  # raised with the launcher's output once it was read
     try:
-        node = ServiceNode("stdoutprobe", profile, install_signal_handlers=False, connect_timeout_s=30.0)
+        node = ServiceNode(OBSERVER, login_profile(profile, tmp_path, "blocked", OBSERVER),
+                           install_signal_handlers=False, connect_timeout_s=30.0)
         node.open()
         try:
             _watch(node, launcher, family, seen, read_fd, start_s)

@@ -1,0 +1,175 @@
+"""Per-run bus logins: `handover-up` on one host authenticates every session (issue 17).
+
+With ``[bus] logins = "per-run"`` (the default simulation profile) the launcher, before it
+starts the router:
+
+- makes a private folder beside the recording, ``<recording dir>/handover-<run id>-bus/``
+  (mode 700), with a random password per user (`secrets`): one file ``credentials`` with every
+  ``user:password`` line (the router's dictionary) and one file per user with its own line
+  (mode 600 each);
+- starts the router with that dictionary and a deny-by-default access control list
+  (`run_access_control`): each service may publish only the keys of `PUBLISHES` (its own
+  heartbeat and liveliness token come with every login), and subscribe to the whole prefix;
+  the launcher itself reads what its job follows; ``observer`` may only subscribe;
+- hands each service its own file through ``HANDOVER_BUS_CREDENTIALS``;
+- removes the folder when it exits.
+
+A process outside the stack has no password: the router refuses its session. To run one
+service by hand against a running stack, or to watch it, point ``HANDOVER_BUS_CREDENTIALS``
+at that service's file (or ``observer``) in the run's ``-bus`` folder (docs/security.md).
+"""
+
+from __future__ import annotations
+
+import os
+import secrets
+import shutil
+from collections.abc import Iterable
+from dataclasses import dataclass
+from pathlib import Path
+
+from bus_schema import topics as T
+from services.runtime.errors import ServiceError
+from services.runtime.profile import CREDENTIALS_ENV, AccessControl, BusAuth, Profile, UserPermissions
+
+#: The login of a process that only watches the bus (tests, tools): subscribe only.
+OBSERVER = "observer"
+#: The launcher's own login (its jobs follow the episodes).
+LAUNCHER = "launcher"
+
+#: Keys (topic suffixes) each service of a simulation profile may publish, besides its own
+#: heartbeat and liveliness token. The tracker renders the simulated Kinect in its process
+#: (``sensor = "sim"``), so it publishes the camera's streams too.
+PUBLISHES: dict[str, tuple[T.Topic, ...]] = {
+    "bridge": (T.JOINT_STATE, T.WRIST_WRENCH, T.OBJECT_MOTION, T.SIM_TRUTH),
+    "tracker": (T.HUMAN, T.OBJECT, T.SKELETON, T.DEPTH, T.KINECT_TRUTH),
+    "kinect": (T.SKELETON, T.DEPTH, T.KINECT_TRUTH),
+    "motion": (T.JOINT_COMMAND, T.MOTION_STATUS),
+    "gripper": (T.GRIPPER_COMMAND, T.GRIPPER_STATE, T.GRIPPER_RELEASE),
+    "supervisor": (T.MOTION_GOAL, T.MOTION_STOP, T.SUPERVISOR_STATE, T.EPISODE),
+    "planner": (T.TRANSFER,),
+    "recorder": (),
+}
+
+#: The file of the router's dictionary (every user) in the run's folder.
+DICTIONARY = "credentials"
+
+
+class LoginsError(ServiceError):
+    """The per-run logins cannot be made (the message says what to check)."""
+
+
+@dataclass(frozen=True)
+class RunLogins:
+    """The files of one run's logins (see the module docstring)."""
+
+    directory: Path
+
+    @property
+    def dictionary(self) -> Path:
+        return self.directory / DICTIONARY
+
+    def user_file(self, user: str) -> Path:
+        """The file holding only `user`'s ``user:password`` line."""
+        return self.directory / user
+
+    def remove(self) -> None:
+        shutil.rmtree(self.directory, ignore_errors=True)
+
+
+def logins_dir(recording_dir: Path, run_id: str) -> Path:
+    """The run's logins folder, beside its recording and its logs."""
+    return recording_dir / f"handover-{run_id}-bus"
+
+
+def _write_private(path: Path, text: str) -> None:
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+    with os.fdopen(fd, "w") as out:
+        out.write(text)
+
+
+def create_run_logins(directory: Path, users: Iterable[str]) -> RunLogins:
+    """Make `directory` (mode 700, must not exist) with a random password for each of `users`.
+
+    Raises:
+        LoginsError: the folder exists already or cannot be written.
+    """
+    try:
+        directory.parent.mkdir(parents=True, exist_ok=True)
+        directory.mkdir(mode=0o700)
+        os.chmod(directory, 0o700)  # whatever the umask
+        passwords = {user: secrets.token_urlsafe(24) for user in sorted(set(users))}
+        for user, password in passwords.items():
+            _write_private(directory / user, f"{user}:{password}\n")
+        _write_private(directory / DICTIONARY, "".join(f"{u}:{p}\n" for u, p in passwords.items()))
+    except FileExistsError:
+        raise LoginsError(f"the bus logins folder {directory} exists already "
+                          "(another run with this --run-id?)") from None
+    except OSError as exc:
+        raise LoginsError(f"cannot write the bus logins folder {directory}: {exc.strerror}") from None
+    return RunLogins(directory)
+
+
+def run_access_control(services: Iterable[str], job: str) -> AccessControl:
+    """The router's deny-by-default list for one run of `services` with `job`.
+
+    Raises:
+        LoginsError: a service whose keys are not known (not in `PUBLISHES`).
+    """
+    everything = ("{prefix}/**",)
+    users: dict[str, UserPermissions] = {}
+    for name in services:
+        if name not in PUBLISHES:
+            raise LoginsError(f"service {name!r} has no known keys for per-run logins: "
+                              "set [bus] logins = \"off\" in the profile, or give it [bus.auth] and an ACL")
+        users[name] = UserPermissions(publish=tuple(f"{{prefix}}/{t.suffix}" for t in PUBLISHES[name]),
+                                      subscribe=everything)
+    follows = (T.SUPERVISOR_STATE, T.EPISODE, T.SIM_TRUTH, T.JOINT_STATE)
+    users[LAUNCHER] = UserPermissions(
+        publish=("{prefix}/robot/joint_command",) if job == "demo" else (),  # the demo drives the arm itself
+        subscribe=tuple(f"{{prefix}}/{t.suffix}" for t in follows))
+    users[OBSERVER] = UserPermissions(subscribe=everything)
+    return AccessControl("deny", users)
+
+
+def start_run_logins(profile: Profile, services: list[str], recording_dir: Path, run_id: str,
+                     job: str) -> tuple[RunLogins | None, Profile, AccessControl | None]:
+    """For a ``logins = "per-run"`` profile: the run's logins, the profile the launcher's own
+    sessions use (authenticated as any user of the dictionary) and the router's ACL. Otherwise
+    (None, `profile`, its own ACL)."""
+    from dataclasses import replace
+
+    if profile.logins != "per-run":
+        return None, profile, profile.access_control
+    acl = run_access_control(services, job)  # refuses an unknown service before any file is made
+    logins = create_run_logins(logins_dir(recording_dir, run_id), [*services, LAUNCHER, OBSERVER])
+    return logins, replace(profile, auth=BusAuth(logins.dictionary)), acl
+
+
+def child_env(logins: RunLogins | None, service: str) -> dict[str, str]:
+    """The environment that hands `service` its own login (nothing without per-run logins)."""
+    return {} if logins is None else {CREDENTIALS_ENV: str(logins.user_file(service))}
+
+
+def login_profile(profile: Profile, recording_dir: Path, run_id: str, user: str = OBSERVER,
+                  timeout_s: float = 30.0) -> Profile:
+    """`profile` (a ``logins = "per-run"`` one) with login `user` of the run `run_id` whose
+    recording goes to `recording_dir`, once `handover-up` has made it (for tests and tools
+    that watch a running stack, or act as one of its services). Another profile comes back
+    as it is.
+
+    Raises:
+        LoginsError: the login did not appear within `timeout_s`.
+    """
+    import time
+    from dataclasses import replace
+
+    if profile.logins != "per-run":
+        return profile
+    path = logins_dir(recording_dir, run_id) / user
+    deadline = time.monotonic() + timeout_s
+    while not path.is_file():
+        if time.monotonic() > deadline:
+            raise LoginsError(f"no bus login {path} after {timeout_s:.0f} s (is handover-up running that run?)")
+        time.sleep(0.05)
+    return replace(profile, auth=BusAuth(path))

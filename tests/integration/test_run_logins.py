@@ -1,0 +1,98 @@
+"""Per-run logins of the default profile (issue 17): a default `handover-up` stack takes no
+session without a login of the run, and a service's login cannot publish another's keys."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import stat
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from bus_schema import topics
+from services.launcher.logins import OBSERVER, login_profile, logins_dir
+from services.runtime.errors import BusError
+from services.runtime.node import open_session
+from services.runtime.profile import free_tcp_port
+from services.runtime.testing import interrupt_then_kill, loopback_profile, wait_until
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture
+def stack(tmp_path):
+    """A default `handover-up --job none` stack (one episode with an absent receiver first)."""
+    port = free_tcp_port()
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    env.pop("HANDOVER_BUS_CREDENTIALS", None)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "services.launcher", "--port", str(port), "--job", "none", "--receiver", "absent",
+         "--recording-dir", str(tmp_path), "--run-id", "auth"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env, cwd=REPO,
+        start_new_session=True)
+    try:
+        yield loopback_profile(port), tmp_path, proc
+    finally:
+        interrupt_then_kill(proc)
+        if proc.stdout is not None:
+            proc.stdout.close()
+
+
+def test_a_stranger_cannot_connect_and_a_login_cannot_publish_anothers_keys(stack):
+    profile, recording_dir, proc = stack
+    observer = login_profile(profile, recording_dir, "auth", OBSERVER, timeout_s=30.0)
+    folder = logins_dir(recording_dir, "auth")
+    assert stat.S_IMODE(folder.stat().st_mode) == 0o700
+    assert all(stat.S_IMODE(f.stat().st_mode) == 0o600 for f in folder.iterdir())
+    # A stranger (no login, then a wrong password) is refused by the router.
+    for stranger in (profile, dataclasses.replace(observer, auth=dataclasses.replace(
+            observer.auth, credentials_file=_wrong_password(folder, recording_dir)))):
+        with pytest.raises(BusError):
+            open_session(stranger, "client", timeout_s=2.0, user=OBSERVER)
+    watch = open_session(observer, "client", timeout_s=10.0, user=OBSERVER)
+    stops: list[bytes] = []
+    states: list[bytes] = []
+    watch.declare_subscriber(topics.MOTION_STOP.key(profile.prefix), lambda s: stops.append(s.payload.to_bytes()))
+    watch.declare_subscriber(topics.SUPERVISOR_STATE.key(profile.prefix), lambda s: states.append(b""))
+    assert wait_until(lambda: len(states) > 5, 30.0), "the observer login receives nothing"
+    # The planner's login may not stop the arm, and the observer may publish nothing.
+    # (A session's own puts reach its own subscribers without the router: publish from others.)
+    planner = open_session(login_profile(profile, recording_dir, "auth", "planner"), "client", timeout_s=10.0,
+                           user="planner")
+    other_observer = open_session(observer, "client", timeout_s=10.0, user=OBSERVER)
+    try:
+        for session in (planner, other_observer):
+            for _ in range(20):
+                session.put(topics.MOTION_STOP.key(profile.prefix), b"forged-stop")
+                time.sleep(0.01)
+        time.sleep(0.5)
+        assert b"forged-stop" not in stops
+        assert proc.poll() is None
+    finally:
+        planner.close()
+        other_observer.close()
+        watch.close()
+
+
+def _wrong_password(folder: Path, into: Path) -> Path:
+    path = into / "wrong"
+    path.write_text(f"{OBSERVER}:not-the-password\n")
+    path.chmod(0o600)
+    assert path.read_text() != (folder / OBSERVER).read_text()
+    return path
+
+
+def test_the_logins_folder_is_gone_after_the_run(tmp_path):
+    port = free_tcp_port()
+    env = dict(os.environ)
+    env.pop("HANDOVER_BUS_CREDENTIALS", None)
+    res = subprocess.run([sys.executable, "-m", "services.launcher", "--port", str(port), "--job", "check",
+                          "--recording-dir", str(tmp_path), "--run-id", "gone"], capture_output=True, text=True,
+                         timeout=120, env=env, cwd=REPO)
+    assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
+    assert f"logins in {logins_dir(tmp_path, 'gone')}/" in res.stdout
+    assert not logins_dir(tmp_path, "gone").exists()
