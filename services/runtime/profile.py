@@ -461,6 +461,13 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
     access_control = _parse_access_control(bus.get("access_control"), path)
     if allow and auth is None:
         raise ProfileError(f"{path}: bus.allow_non_loopback = true needs [bus.auth] (user/password per service)")
+    for side in ("listen", "connect"):  # the Zenoh overrides obey the loopback rule too, checked at load
+        endpoints = overrides.get(side, {}).get("endpoints", []) if isinstance(overrides.get(side), dict) else []
+        for endpoint in endpoints if isinstance(endpoints, list) else [endpoints]:
+            try:
+                validate_endpoint(endpoint, allow)
+            except ProfileError as exc:
+                raise ProfileError(f"{path}: [bus.zenoh.{side}] {exc}") from None
     if access_control is not None and auth is None:
         raise ProfileError(f"{path}: [bus.access_control] names users, so it needs [bus.auth]")
     logins = bus.get("logins", "off")

@@ -38,6 +38,19 @@ def test_a_recording_dir_that_is_a_file_is_refused(tmp_path):
     assert blocker.read_text() == "x"
 
 
+@pytest.mark.parametrize("side", ["listen", "connect"])
+def test_an_off_loopback_zenoh_override_is_refused_before_anything_starts(tmp_path, side):
+    """The loopback rule holds over the whole Zenoh config, overrides included (issue 17)."""
+    sim = (Path(__file__).resolve().parents[3] / "deploy" / "sim.toml").read_text()
+    bad = tmp_path / "bad.toml"
+    bad.write_text(sim + f'\n[bus.zenoh.{side}]\nendpoints = ["tcp/0.0.0.0:7999"]\n')
+    out = _up("--profile", str(bad), "--recording-dir", str(tmp_path / "rec"))
+    assert out.returncode == 2, out.stderr + out.stdout
+    assert f"[bus.zenoh.{side}] bus endpoint 'tcp/0.0.0.0:7999' is not on loopback" in out.stderr, out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1 and "started" not in out.stdout
+    assert not (tmp_path / "rec").exists()
+
+
 def test_a_profile_with_two_simulated_kinects_is_refused_before_anything_starts(tmp_path):
     """The default profile renders the Kinect in the tracker; adding the stand-alone Kinect
     service too would put two bodies on perception/skeleton."""
