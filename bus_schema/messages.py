@@ -395,12 +395,12 @@ class GripperCommand(Message, frozen=True, kw_only=True):
     Attributes:
         grip_force_n: commanded grip normal force, N (clamped to ≤ 140 N by the service).
         position_m: finger position that yields this force through the thesis's spring
-            (eq 3.21), m from the fully open position.
+            (eq 3.21), m from the fully open position (never negative).
         mode: controller mode when the command was made.
     """
 
     grip_force_n: Annotated[float, Meta(ge=0.0, le=140.0)]
-    position_m: Annotated[float, Meta(ge=-1.0, le=1.0)] = 0.0
+    position_m: Annotated[float, Meta(ge=0.0, le=1.0)] = 0.0
     mode: GripperMode = "grasp"
 
 
@@ -554,10 +554,11 @@ class SimTruth(Message, frozen=True, kw_only=True):
         object_velocity_m_s: object velocity in the `base` frame.
         held_by: who supports the object.
         dropped: the object fell with nobody holding it.
-        slip_m: slip distance of the object relative to the pads (gripper frame y, down +).
+        slip_m: slip distance of the object relative to the pads (gripper frame y, down +;
+            signed: a receiver who lifts the object moves it up).
         grip_force_n: actual grip normal force, N.
         receiver_hand_position_m: receiver hand (true) in the `base` frame.
-        receiver_pull_n: receiver's pull on the object along x, N.
+        receiver_pull_n: receiver's pull on the object along x, N (signed: a push is negative).
         tool_position_m: true gripper position in the `base` frame.
         tool_speed_m_s: true gripper speed, m/s.
     """

@@ -24,6 +24,8 @@ from services.runtime import ServiceNode
 from services.runtime.sched import MAX_EXCUSED_S, StarvationJudge
 
 SAFE_OUTCOMES = ("released", "timeout", "aborted")
+#: The one service whose episode summaries the job takes.
+SUPERVISOR = "supervisor"
 #: The supervisor publishes its state at ≥ 20 Hz; older than this, it is frozen or hung
 #: (nothing else watches the watcher): the job stops the arm itself and fails, s.
 SUPERVISOR_SILENT_S = 0.2
@@ -75,6 +77,11 @@ class EpisodeWatch:
         self._holder = msg.held_by
         if msg.dropped:
             self._dropped[self._episode] = True
+
+    def accepts(self, msg: EpisodeSummary) -> bool:
+        """Only the supervisor's summary counts, and only its first of each episode: a copy,
+        or a summary from anyone else, cannot end the run or change its verdict."""
+        return msg.source == SUPERVISOR and all(r.summary.episode_id != msg.episode_id for r in self.reports)
 
     def summary(self, msg: EpisodeSummary) -> EpisodeReport:
         dropped = self._dropped.get(msg.episode_id, False)
@@ -164,6 +171,10 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
             watch.truth(rx.msg)
         take_states()
         for rx in summaries.drain():
+            if not watch.accepts(rx.msg):
+                say(f"WARNING: ignored an episode summary from {rx.msg.source!r} for episode {rx.msg.episode_id} "
+                    "(only the supervisor's first summary of an episode counts)")
+                continue
             report = watch.summary(rx.msg)
             for line in report.lines:
                 say(line)

@@ -10,7 +10,8 @@ starts the router:
 - starts the router with that dictionary and a deny-by-default access control list
   (`run_access_control`): each service may publish only the keys of `PUBLISHES` (its own
   heartbeat and liveliness token come with every login), and subscribe to the whole prefix;
-  the launcher itself reads what its job follows; ``observer`` may only subscribe;
+  the launcher itself reads what its job follows and may send a protective stop (it stops the
+  arm when the supervisor falls silent); ``observer`` may only subscribe;
 - hands each service its own file through ``HANDOVER_BUS_CREDENTIALS``;
 - removes the folder when it exits.
 
@@ -125,9 +126,10 @@ def run_access_control(services: Iterable[str], job: str) -> AccessControl:
         users[name] = UserPermissions(publish=tuple(f"{{prefix}}/{t.suffix}" for t in PUBLISHES[name]),
                                       subscribe=everything)
     follows = (T.SUPERVISOR_STATE, T.EPISODE, T.SIM_TRUTH, T.JOINT_STATE)
-    users[LAUNCHER] = UserPermissions(
-        publish=("{prefix}/robot/joint_command",) if job == "demo" else (),  # the demo drives the arm itself
-        subscribe=tuple(f"{{prefix}}/{t.suffix}" for t in follows))
+    # The job stops the arm itself when the supervisor falls silent; the demo drives the arm.
+    publish = (T.MOTION_STOP, T.JOINT_COMMAND) if job == "demo" else (T.MOTION_STOP,)
+    users[LAUNCHER] = UserPermissions(publish=tuple(f"{{prefix}}/{t.suffix}" for t in publish),
+                                      subscribe=tuple(f"{{prefix}}/{t.suffix}" for t in follows))
     users[OBSERVER] = UserPermissions(subscribe=everything)
     return AccessControl("deny", users)
 

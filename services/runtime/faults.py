@@ -1,5 +1,10 @@
 """Fault injection on a service's publications, for the fault tests (never on by default).
 
+Only a profile that says so takes rules: ``[testing] fault_injection = true`` (the fault
+harness writes such a profile for its runs). In any other run the variable below is ignored,
+with one warning: no environment variable can drop or delay a safety message of a
+production stack (issue 17).
+
 The environment variable `HANDOVER_FAULTS` holds rules separated by ``;``, each
 ``<service>:<topic suffix>:<kind>=<value>``:
 
@@ -78,10 +83,18 @@ def parse_rules(text: str) -> list[FaultRule]:
     return rules
 
 
-def rules_for(service: str, environ: dict[str, str] | None = None) -> dict[str, FaultRule]:
-    """This service's rules by topic suffix (empty when the variable is unset)."""
+def rules_for(service: str, environ: dict[str, str] | None = None, enabled: bool = True) -> dict[str, FaultRule]:
+    """This service's rules by topic suffix (empty when the variable is unset, or when
+    `enabled` is False: the profile does not allow fault injection)."""
     env = os.environ if environ is None else environ
     text = env.get(ENV_VAR, "")
+    if text and not enabled:
+        import logging
+
+        logging.getLogger(__name__).warning(
+            "%s is set but ignored: this profile does not allow fault injection ([testing] fault_injection = true "
+            "is for fault tests only)", ENV_VAR)
+        return {}
     return {r.suffix: r for r in parse_rules(text) if r.service == service} if text else {}
 
 

@@ -135,7 +135,7 @@ class ServiceNode:
         self._token: Any = None
         self._previous_handlers: dict[int, Any] = {}
         self.loops: list[RateLoop] = []
-        self.fault_rules = rules_for(name)
+        self.fault_rules = rules_for(name, enabled=profile.fault_injection)
         self._heartbeat_pub: TypedPublisher[Any] | None = None
         self._beat_lock = threading.Lock()
         self._beats = 0

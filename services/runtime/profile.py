@@ -31,6 +31,7 @@ from typing import Any, Literal
 
 from bus_schema import DEFAULT_PREFIX, MAX_PAYLOAD_BYTES
 from bus_schema.topics import HEARTBEAT
+from services.runtime.bus_tls import BusTls, parse_tls
 from services.runtime.errors import ProfileError
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
@@ -278,6 +279,9 @@ class Profile:
         logins: ``per-run`` (``handover-up`` makes a login per service for each run, and a
             service finds its own through ``HANDOVER_BUS_CREDENTIALS``:
             `services.launcher.logins`) or ``off``.
+        tls: mutual TLS on the bus (``[bus.tls]``, `services.runtime.bus_tls`), or None.
+        fault_injection: ``[testing] fault_injection = true``: the services take
+            `HANDOVER_FAULTS` rules (`services.runtime.faults`); fault-test profiles only.
     """
 
     path: Path | None
@@ -288,6 +292,8 @@ class Profile:
     auth: BusAuth | None = None
     access_control: AccessControl | None = None
     logins: str = "off"
+    tls: BusTls | None = None
+    fault_injection: bool = False
     services: tuple[ServiceSpec, ...] = ()
     launcher: dict[str, Any] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict)
@@ -458,6 +464,7 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
     if not isinstance(overrides, dict):
         raise ProfileError(f"{path}: [bus.zenoh] must be a table")
     auth = _parse_auth(bus.get("auth"), path)
+    tls = parse_tls(bus.get("tls"), path, endpoint)
     access_control = _parse_access_control(bus.get("access_control"), path)
     if allow and auth is None:
         raise ProfileError(f"{path}: bus.allow_non_loopback = true needs [bus.auth] (user/password per service)")
@@ -477,6 +484,10 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
         raise ProfileError(f"{path}: bus.logins = \"per-run\" and [bus.auth] exclude each other")
     if logins == "per-run" and os.environ.get(CREDENTIALS_ENV):
         auth = BusAuth(Path(os.environ[CREDENTIALS_ENV]))  # a service of a run: its own login
+    testing = doc.get("testing", {})
+    if not isinstance(testing, dict) or set(testing) - {"fault_injection"} \
+            or not isinstance(testing.get("fault_injection", False), bool):
+        raise ProfileError(f"{path}: [testing] may hold only fault_injection = true/false")
     services = tuple(_as_spec(name, table, path) for name, table in services_table.items())
     _check_niced_services_are_report_only(services, path)
     return Profile(
@@ -488,6 +499,8 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
         auth=auth,
         access_control=access_control,
         logins=logins,
+        tls=tls,
+        fault_injection=testing.get("fault_injection", False),
         services=services,
         launcher=dict(doc.get("launcher", {})),
         raw=doc,
@@ -539,6 +552,8 @@ def zenoh_config_dict(profile: Profile, mode: Literal["client", "router", "peer"
             conf["transport"]["auth"] = {"usrpwd": {"user": user, "password": profile.auth.password(user)}}
     if mode == "router" and profile.access_control is not None:
         conf["access_control"] = profile.access_control.zenoh_dict(profile.prefix)
+    if profile.tls is not None:
+        conf["transport"]["link"]["tls"] = profile.tls.zenoh_dict()
     _deep_merge(conf, profile.zenoh_overrides)
     # Whatever the overrides say, scouting stays off, every endpoint obeys the loopback rule
     # and no message above the bus cap is taken in.

@@ -25,7 +25,7 @@ def main() -> int:
     if args.mode == "raw":
         import threading
 
-        session = open_session(profile, "client")
+        session = open_session(profile, "client", user="pong")  # its login when the run has logins
         pub = session.declare_publisher(PONG)
         sub = session.declare_subscriber(PING, lambda s: pub.put(s.payload))
         token = session.liveliness().declare_token("bench/typed/alive/pong")

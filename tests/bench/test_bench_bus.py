@@ -26,8 +26,8 @@ N_PINGS = 3000
 WARMUP = 300
 
 
-def _raw_round_trips(profile, n):
-    session = open_session(profile, "client")
+def _raw_round_trips(profile, n, user=None):
+    session = open_session(profile, "client", user=user)
     got = threading.Event()
     stamp = [0.0]
 

@@ -43,8 +43,7 @@ from services.launcher.logins import OBSERVER, login_profile
 from services.runtime import ServiceNode
 from services.runtime.node import open_session
 from services.runtime.faults import ARM_DIR_ENV_VAR, ENV_VAR, arm_file_name
-from services.runtime.profile import BusAuth, free_tcp_port
-from services.runtime.testing import loopback_profile
+from services.runtime.profile import BusAuth, free_tcp_port, load_profile_file
 from tests.faults.invariants import FaultPlan, Injection, RunRecord
 from tests.faults.mutations import random_payloads, structured_payloads
 from tests.samples import SAMPLES
@@ -156,8 +155,11 @@ def run_with_faults(plans: list[FaultPlan], receiver: str = "absent", seed: int 
                     log_path: Path | None = None) -> RunRecord:
     """One `handover-up` run with `plans` injected in order (see the module docstring)."""
     port = free_tcp_port()
-    profile = loopback_profile(port)
     workdir = Path(tempfile.mkdtemp(prefix="faults-"))
+    # The services take HANDOVER_FAULTS rules only from a profile that allows fault injection.
+    profile_path = workdir / "faults.toml"
+    profile_path.write_text(load_profile_file("sim").path.read_text() + "\n[testing]\nfault_injection = true\n")
+    profile = load_profile_file(profile_path).with_bus(endpoint=f"tcp/127.0.0.1:{port}")
     arm_dir = workdir / "armed"
     arm_dir.mkdir()
     env = dict(os.environ)
@@ -167,8 +169,8 @@ def run_with_faults(plans: list[FaultPlan], receiver: str = "absent", seed: int 
     if rules:
         env[ENV_VAR] = ";".join(rules)
         env[ARM_DIR_ENV_VAR] = str(arm_dir)
-    args = ["--port", str(port), "--receiver", receiver, "--episodes", "1", "--seed", str(seed),
-            "--recording-dir", str(workdir), "--run-id", "fault", "--verbose", *extra_args]
+    args = ["--profile", str(profile_path), "--port", str(port), "--receiver", receiver, "--episodes", "1",
+            "--seed", str(seed), "--recording-dir", str(workdir), "--run-id", "fault", "--verbose", *extra_args]
     rec = RunRecord(receiver=receiver)
     launcher = _Launcher(args, env)
     node: ServiceNode | None = None

@@ -15,6 +15,7 @@ import psutil
 import pytest
 
 from services.runtime.node import open_session
+from services.launcher.certs import make_certificates
 from services.runtime.profile import free_tcp_port, load_profile_file, zenoh_config_dict
 from services.runtime.testing import BusRouter, wait_until
 
@@ -30,10 +31,18 @@ def _credentials(path, users):
 
 @pytest.fixture
 def multihost(tmp_path, monkeypatch):
-    """The multihost profile moved to loopback, with a router (in this process)."""
+    """The shipped multihost profile moved to loopback, over mutual TLS with certificates made
+    now (`handover-certs`' code), with a router (in this process)."""
     creds = _credentials(tmp_path / "bus_credentials", USERS)
     monkeypatch.setenv("HANDOVER_BUS_CREDENTIALS", str(creds))
-    profile = load_profile_file("multihost").with_bus(endpoint=f"tcp/127.0.0.1:{free_tcp_port()}")
+    make_certificates(tmp_path / "tls", ["127.0.0.1"])
+    text = load_profile_file("multihost").path.read_text()
+    text = text.replace("~/.config/handover/tls/192.168.1.10", str(tmp_path / "tls" / "127.0.0.1"))
+    text = text.replace("~/.config/handover/tls/ca.pem", str(tmp_path / "tls" / "ca.pem"))
+    path = tmp_path / "multihost.toml"
+    path.write_text(text.replace("tls/192.168.1.10:7447", f"tls/127.0.0.1:{free_tcp_port()}"))
+    profile = load_profile_file(path)
+    assert profile.endpoint.startswith("tls/") and profile.tls is not None
     with BusRouter(profile) as router:
         yield profile, router, tmp_path
 

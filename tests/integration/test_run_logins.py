@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from bus_schema import topics
+from bus_schema import decode, encode_for, topics
 from services.launcher.logins import OBSERVER, login_profile, logins_dir
 from services.runtime.errors import BusError
 from services.runtime.node import open_session
@@ -72,6 +72,12 @@ def test_a_stranger_cannot_connect_and_a_login_cannot_publish_anothers_keys(stac
         time.sleep(0.5)
         assert b"forged-stop" not in stops
         assert proc.poll() is None
+        # The launcher's login may stop the arm (its job does when the supervisor falls silent).
+        launcher = open_session(login_profile(profile, recording_dir, "auth", "credentials"), "client",
+                                timeout_s=10.0, user="launcher")
+        launcher.put(topics.MOTION_STOP.key(profile.prefix), b"launcher-stop")
+        assert wait_until(lambda: b"launcher-stop" in stops, 5.0)
+        launcher.close()
     finally:
         planner.close()
         other_observer.close()
@@ -96,3 +102,43 @@ def test_the_logins_folder_is_gone_after_the_run(tmp_path):
     assert res.returncode == 0, res.stdout[-3000:] + res.stderr[-3000:]
     assert f"logins in {logins_dir(tmp_path, 'gone')}/" in res.stdout
     assert not logins_dir(tmp_path, "gone").exists()
+
+
+def test_a_zero_grip_forged_with_the_grippers_own_login_is_reported_as_a_drop(tmp_path):
+    """The worst case the logins leave (issue 17): a process with the gripper's login sends
+    0 N grip commands at 500 Hz while the arm carries the object. The object falls; the run's
+    summary says so from the simulation's truth and the run fails, whatever the bus said."""
+    port = free_tcp_port()
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    env.pop("HANDOVER_BUS_CREDENTIALS", None)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "services.launcher", "--port", str(port), "--receiver", "absent", "--episodes", "1",
+         "--recording-dir", str(tmp_path), "--run-id", "forged"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env, cwd=REPO,
+        start_new_session=True, text=True)
+    profile = loopback_profile(port)
+    try:
+        observer = open_session(login_profile(profile, tmp_path, "forged", OBSERVER), "client", timeout_s=30.0,
+                                user=OBSERVER)
+        phases: list[str] = []
+        observer.declare_subscriber(topics.SUPERVISOR_STATE.key(profile.prefix), lambda s: phases.append(
+            decode(topics.SUPERVISOR_STATE, s.payload.to_bytes()).phase))
+        assert wait_until(lambda: "reach" in phases, 60.0), sorted(set(phases))
+        gripper = open_session(login_profile(profile, tmp_path, "forged", "gripper"), "client", timeout_s=10.0,
+                               user="gripper")
+        key = topics.GRIPPER_COMMAND.key(profile.prefix)
+        for seq in range(750):  # 1.5 s at 500 Hz
+            forged = topics.GRIPPER_COMMAND.type(seq=10_000 + seq, stamp_ns=time.time_ns(), source="gripper",
+                                                 grip_force_n=0.0, position_m=0.0, mode="release")
+            gripper.put(key, encode_for(topics.GRIPPER_COMMAND, forged))
+            time.sleep(0.002)
+        gripper.close()
+        observer.close()
+        out, _ = proc.communicate(timeout=90)
+    finally:
+        interrupt_then_kill(proc)
+        if proc.stdout is not None:
+            proc.stdout.close()
+    assert proc.returncode == 1, out[-3000:]
+    assert "DROPPED during the episode" in out, out[-3000:]
+    assert "the object was dropped" in out.splitlines()[-1], out[-3000:]

@@ -71,6 +71,15 @@ def test_grip_force_above_pinch_limit_rejected():
     assert decode(topics.GRIPPER_COMMAND, _raw(topics.GRIPPER_COMMAND, grip_force_n=140.0)).grip_force_n == 140.0
 
 
+
+def test_a_negative_finger_position_is_rejected():
+    """The finger position is measured from fully open: never negative (issue 17)."""
+    with pytest.raises(DecodeError, match="position_m"):
+        decode(topics.GRIPPER_COMMAND, _raw(topics.GRIPPER_COMMAND, grip_force_n=5.0, position_m=-1.0))
+    ok = decode(topics.GRIPPER_COMMAND, _raw(topics.GRIPPER_COMMAND, grip_force_n=5.0, position_m=0.0))
+    assert ok.position_m == 0.0
+
+
 @pytest.mark.parametrize("field,value,match", [
     ("seq", -1, "seq"),
     ("stamp_ns", "yesterday", "stamp_ns"),

@@ -42,6 +42,7 @@ def test_the_list_gives_each_service_its_own_keys(tmp_path):
     assert "observer_subscribe" in rules and rules["observer_publish"]["key_exprs"] == [
         "handover/v1/runtime/heartbeat/observer"]
     assert "handover/v1/robot/joint_command" not in rules["launcher_publish"]["key_exprs"]
+    assert "handover/v1/motion/stop" in rules["launcher_publish"]["key_exprs"]  # its own protective stop
     demo = {r["id"]: r for r in run_access_control(["bridge"], "demo").zenoh_dict("handover/v1")["rules"]}
     assert "handover/v1/robot/joint_command" in demo["launcher_publish"]["key_exprs"]
     with pytest.raises(LoginsError, match="'fake_baxter'"):

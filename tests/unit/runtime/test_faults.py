@@ -48,3 +48,22 @@ def test_delay_keeps_order_and_holds_each_message_back():
     put.close()
     assert [p for _, p in arrivals] == [b"\x00", b"\x01", b"\x02"]
     assert all(t - t0 >= 0.1 for t, _ in arrivals)
+
+
+def test_rules_are_ignored_with_a_warning_unless_the_profile_allows_fault_injection(caplog):
+    env = {"HANDOVER_FAULTS": "gripper:gripper/release:delay=0.05"}
+    assert rules_for("gripper", env, enabled=False) == {}
+    assert "ignored: this profile does not allow fault injection" in caplog.text
+    assert set(rules_for("gripper", env, enabled=True)) == {"gripper/release"}
+
+
+def test_only_a_testing_table_turns_fault_injection_on(tmp_path):
+    from services.runtime.profile import load_profile_file
+
+    assert load_profile_file("sim").fault_injection is False  # no shipped profile allows it
+    path = tmp_path / "faults.toml"
+    path.write_text(load_profile_file("sim").path.read_text() + "\n[testing]\nfault_injection = true\n")
+    assert load_profile_file(path).fault_injection is True
+    path.write_text('[testing]\nfault_injection = "yes"\n')
+    with pytest.raises(ProfileError, match=r"\[testing\] may hold only fault_injection"):
+        load_profile_file(path)
