@@ -22,12 +22,12 @@ import pytest
 
 from services.launcher.logins import create_run_logins
 from services.launcher.processes import RouterProcess
-from services.runtime.liveliness import alive_services
 from services.runtime.node import open_session
 from services.runtime.profile import AccessControl, BusAuth, UserPermissions, free_tcp_port, load_profile_file
 from services.runtime.profile import zenoh_config_dict
-from services.runtime.testing import loopback_profile, wait_until
+from services.runtime.testing import loopback_profile
 from tests.bench._report import save, summarize, table
+from tests.bench.pong import PING, PONG
 from tests.bench.test_bench_bus import _raw_round_trips
 
 pytestmark = pytest.mark.bench
@@ -43,13 +43,15 @@ _ALIVE = re.compile(r"all \d+ services alive [\d.]+ s after start \(([\d.]+) s a
 def _hops(tmp: Path, logins: bool) -> list[float]:
     """One-way hop times (round trip / 2, s) between this process and a pong process."""
     profile = loopback_profile(free_tcp_port()).with_bus(prefix=PREFIX)
+    acl_prefix = PREFIX.split("/")[0]  # the ping and pong keys (bench/ping, bench/pong) lie under it
     env = {k: v for k, v in os.environ.items() if k != "HANDOVER_BUS_CREDENTIALS"}
     ping_profile = router_profile = dataclasses.replace(profile, logins="off")
     if logins:
         run = create_run_logins(tmp / f"bus-{time.monotonic_ns()}", ["ping", "pong"])
         acl = AccessControl("deny", {"ping": UserPermissions(publish=("bench/ping",), subscribe=("bench/pong",)),
                                      "pong": UserPermissions(publish=("bench/pong",), subscribe=("bench/ping",))})
-        router_profile = dataclasses.replace(profile, auth=BusAuth(run.dictionary), access_control=acl)
+        router_profile = dataclasses.replace(profile, prefix=acl_prefix, auth=BusAuth(run.dictionary),
+                                             access_control=acl)
         ping_profile = dataclasses.replace(profile, auth=BusAuth(run.user_file("ping")))
         env["HANDOVER_BUS_CREDENTIALS"] = str(run.user_file("pong"))
     router = RouterProcess(json.dumps(zenoh_config_dict(router_profile, "router")))
@@ -57,16 +59,28 @@ def _hops(tmp: Path, logins: bool) -> list[float]:
     proc = subprocess.Popen([sys.executable, "-m", "tests.bench.pong", "--endpoint", profile.endpoint,
                              "--mode", "raw"], env=env, cwd=REPO)
     try:
-        watcher = open_session(ping_profile, "client", user="ping")
-        try:
-            assert wait_until(lambda: "pong" in alive_services(watcher, PREFIX), 20.0), "pong never came up"
-        finally:
-            watcher.close()
+        _wait_for_pong(ping_profile)
         return [r / 2 for r in _raw_round_trips(ping_profile, N_PINGS, user="ping")]
     finally:
         proc.terminate()
         proc.wait(10)
         router.stop()
+
+
+def _wait_for_pong(profile) -> None:
+    """Ping until the pong process answers (its session is up and its subscription known)."""
+    session = open_session(profile, "client", timeout_s=20.0, user="ping")
+    answered: list[bool] = []
+    sub = session.declare_subscriber(PONG, lambda _s: answered.append(True))
+    try:
+        deadline = time.monotonic() + 20.0
+        while not answered:
+            assert time.monotonic() < deadline, "pong never answered"
+            session.put(PING, b"hello")
+            time.sleep(0.05)
+    finally:
+        sub.undeclare()
+        session.close()
 
 
 def _startup_s(tmp: Path, logins: bool) -> float:
