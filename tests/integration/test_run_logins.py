@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import dataclasses
 import os
+import re
+import signal
 import stat
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -142,3 +145,71 @@ def test_a_zero_grip_forged_with_the_grippers_own_login_is_reported_as_a_drop(tm
     assert proc.returncode == 1, out[-3000:]
     assert "DROPPED during the episode" in out, out[-3000:]
     assert "the object was dropped" in out.splitlines()[-1], out[-3000:]
+
+
+def test_forged_heartbeats_do_not_hide_a_frozen_service(tmp_path):
+    """A process with the gripper's login beats for the planner (on the planner's key, which
+    the router refuses it, and on its own key, which every reader refuses) while the planner
+    is frozen: the supervisor still calls the planner silent within the freeze target."""
+    port = free_tcp_port()
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    env.pop("HANDOVER_BUS_CREDENTIALS", None)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "services.launcher", "--port", str(port), "--receiver", "absent", "--episodes", "1",
+         "--recording-dir", str(tmp_path), "--run-id", "spoof"],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env, cwd=REPO,
+        start_new_session=True, text=True)
+    profile = loopback_profile(port)
+    planner_pid = None
+    lines: list[str] = []
+    reader = threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True)
+    reader.start()
+    stop_spoofing = threading.Event()
+    try:
+        observer = open_session(login_profile(profile, tmp_path, "spoof", OBSERVER), "client", timeout_s=30.0,
+                                user=OBSERVER)
+        phases: list[str] = []
+        stops: list[tuple[float, str]] = []
+        observer.declare_subscriber(topics.SUPERVISOR_STATE.key(profile.prefix), lambda s: phases.append(
+            decode(topics.SUPERVISOR_STATE, s.payload.to_bytes()).phase))
+        observer.declare_subscriber(topics.MOTION_STOP.key(profile.prefix), lambda s: stops.append(
+            (time.monotonic(), decode(topics.MOTION_STOP, s.payload.to_bytes()).reason)))
+        assert wait_until(lambda: "transfer" in phases, 60.0), sorted(set(phases))
+        planner_pid = int(next(re.search(r"started planner \(pid (\d+)\)", line).group(1)
+                               for line in lines if "started planner (pid" in line))
+        spoofer = open_session(login_profile(profile, tmp_path, "spoof", "gripper"), "client", timeout_s=10.0,
+                               user="gripper")
+
+        def spoof() -> None:
+            seq = 0
+            while not stop_spoofing.is_set():
+                beat = topics.HEARTBEAT.type(seq=seq, stamp_ns=time.time_ns(), source="planner", uptime_s=1.0,
+                                             beats=seq, pid=planner_pid)
+                for sender in ("planner", "gripper"):
+                    spoofer.put(topics.HEARTBEAT.sender_key(sender, profile.prefix), encode_for(topics.HEARTBEAT, beat))
+                seq += 1
+                time.sleep(0.02)
+
+        spoofing = threading.Thread(target=spoof, daemon=True)
+        spoofing.start()
+        time.sleep(0.3)  # forged beats flowing before the freeze
+        frozen_at = time.monotonic()
+        os.kill(planner_pid, signal.SIGSTOP)
+        assert wait_until(lambda: any("planner" in why for _, why in stops), 5.0), stops
+        noticed_s = min(t for t, why in stops if "planner" in why) - frozen_at
+        assert noticed_s < 0.5, f"the frozen planner was stopped for only after {noticed_s:.3f} s"
+        stop_spoofing.set()
+        spoofing.join(2.0)
+        spoofer.close()
+        observer.close()
+    finally:
+        stop_spoofing.set()
+        if planner_pid is not None:
+            try:
+                os.kill(planner_pid, signal.SIGCONT)
+            except ProcessLookupError:
+                pass
+        interrupt_then_kill(proc)
+        reader.join(5.0)
+        if proc.stdout is not None:
+            proc.stdout.close()
