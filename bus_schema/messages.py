@@ -482,7 +482,7 @@ class SupervisorState(Message, frozen=True, kw_only=True):
     grip_request: GripRequest = "transfer"
 
 
-EpisodeOutcome = Literal["released", "timeout", "aborted", "failed", "protective_stop"]
+EpisodeOutcome = Literal["released", "timeout", "aborted", "failed", "protective_stop", "dropped"]
 
 
 class EpisodeSummary(Message, frozen=True, kw_only=True):
@@ -493,7 +493,8 @@ class EpisodeSummary(Message, frozen=True, kw_only=True):
         outcome: ``released`` (the gripper let go to the receiver), ``timeout`` (the
             receiver never took the object; retracted with it), ``aborted`` (receiver lost,
             retracted), ``failed`` (a step failed; see `reason`), ``protective_stop`` (a service
-            was lost or went silent; the arm was stopped).
+            was lost or went silent; the arm was stopped), ``dropped`` (in simulation: the
+            simulation's truth says the object fell, whatever the other messages said).
         reason: one line on why it ended that way (names the service for a fault).
         transfer_point_base_m: the transfer point the reach went to (`base`, m).
         receiver_posture: posture the plan used.

@@ -20,6 +20,7 @@ from services.runtime.node import heartbeat_period_s
 from services.runtime.sched import MAX_EXCUSED_S, ServiceStarvation, delivery_pids
 from services.supervisor.config import SupervisorConfig
 from services.supervisor.core import Actions, Sequencer, Snapshot, TargetFilter
+from services.supervisor.truth import outcome_from_truth
 from services.supervisor.watchdog import Watchdog, judging_for_beats, resolve_heartbeat_timeout_s
 
 log = logging.getLogger(__name__)
@@ -86,6 +87,7 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
             ("wrench", topics.WRIST_WRENCH, 64), ("joints", topics.JOINT_STATE, 64),
         )}
         heartbeats = node.subscribe(topics.HEARTBEAT, queue_size=512, wake=False)
+        truth = node.subscribe(topics.SIM_TRUTH, queue_size=1, wake=False)  # simulation only: never for control
 
         def on_liveliness(name: str, alive: bool) -> None:
             liveliness_events.put((name, alive, time.monotonic()))
@@ -120,6 +122,8 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                     log.info("phase", extra=kv(phase=sequencer.phase, episode=sequencer.episode_id,
                                                reason=sequencer.reason))
             if actions.summary is not None:
+                newest_truth = truth.latest()
+                actions.summary = outcome_from_truth(actions.summary, newest_truth.msg if newest_truth else None)
                 episode_pub.put(**actions.summary)
                 log.info("episode summary",
                          extra=kv(**{k: actions.summary[k] for k in ("episode_id", "outcome", "reason")}))

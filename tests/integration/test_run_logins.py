@@ -144,6 +144,7 @@ def test_a_zero_grip_forged_with_the_grippers_own_login_is_reported_as_a_drop(tm
             proc.stdout.close()
     assert proc.returncode == 1, out[-3000:]
     assert "DROPPED during the episode" in out, out[-3000:]
+    assert "episode 1: DROPPED: the object fell (simulation truth); the supervisor saw" in out, out[-3000:]
     assert "the object was dropped" in out.splitlines()[-1], out[-3000:]
 
 
