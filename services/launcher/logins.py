@@ -9,7 +9,7 @@ starts the router:
   (mode 600 each);
 - starts the router with that dictionary and a deny-by-default access control list
   (`run_access_control`): each service may publish only the keys of `PUBLISHES` (its own
-  heartbeat and liveliness token come with every login), and subscribe to the whole prefix;
+  heartbeat and liveliness token come with every login), and subscribe to every key (the ROS 1 ones too);
   the launcher itself reads what its job follows and may send a protective stop (it stops the
   arm when the supervisor falls silent); ``observer`` may only subscribe;
 - hands each service its own file through ``HANDOVER_BUS_CREDENTIALS``;
@@ -50,6 +50,17 @@ PUBLISHES: dict[str, tuple[T.Topic, ...]] = {
     "supervisor": (T.MOTION_GOAL, T.MOTION_STOP, T.SUPERVISOR_STATE, T.EPISODE),
     "planner": (T.TRANSFER,),
     "recorder": (),
+    "fake_baxter": (T.SKELETON, T.DEPTH, T.SIM_TRUTH, T.KINECT_TRUTH),  # it plays the Kinect driver too
+}
+
+#: ROS 1 keys (zenoh-bridge-ros1's ``<type>/<md5>/<topic>``, any namespace or key format:
+#: ``**``) for the Baxter profiles: the bridge's Baxter backend sends the robot's commands, the
+#: fake Baxter (robot, sensors and zenoh-bridge-ros1 in one process) its state and sensors.
+ROS_PUBLISHES: dict[str, tuple[str, ...]] = {
+    "bridge": ("**/robot/limb/right/joint_command", "**/robot/limb/right/joint_command_timeout",
+               "**/robot/set_super_enable", "**/robot/end_effector/right_gripper/command"),
+    "fake_baxter": ("**/robot/joint_states", "**/robot/state", "**/handover/wrist_wrench",
+                    "**/handover/optical_motion"),
 }
 
 #: The file of the router's dictionary (every user) in the run's folder.
@@ -117,14 +128,14 @@ def run_access_control(services: Iterable[str], job: str) -> AccessControl:
     Raises:
         LoginsError: a service whose keys are not known (not in `PUBLISHES`).
     """
-    everything = ("{prefix}/**",)
+    everything = ("**",)  # the prefix's keys and, for the Baxter profiles, the ROS 1 ones
     users: dict[str, UserPermissions] = {}
     for name in services:
         if name not in PUBLISHES:
             raise LoginsError(f"service {name!r} has no known keys for per-run logins: "
                               "set [bus] logins = \"off\" in the profile, or give it [bus.auth] and an ACL")
-        users[name] = UserPermissions(publish=tuple(f"{{prefix}}/{t.suffix}" for t in PUBLISHES[name]),
-                                      subscribe=everything)
+        own = tuple(f"{{prefix}}/{t.suffix}" for t in PUBLISHES[name]) + ROS_PUBLISHES.get(name, ())
+        users[name] = UserPermissions(publish=own, subscribe=everything)
     follows = (T.SUPERVISOR_STATE, T.EPISODE, T.SIM_TRUTH, T.JOINT_STATE)
     # The job stops the arm itself when the supervisor falls silent; the demo drives the arm.
     publish = (T.MOTION_STOP, T.JOINT_COMMAND) if job == "demo" else (T.MOTION_STOP,)

@@ -196,7 +196,7 @@ class AccessControl:
                 # A declared publisher sends only once it knows of a matching subscriber; a
                 # subscription to a wildcard (every service's heartbeat) is wider than any one
                 # publish key, so the publisher is told of every subscription under the prefix.
-                ("see_subscribers", ["egress"], ["declare_subscriber"], [f"{prefix}/**"] if publish else []),
+                ("see_subscribers", ["egress"], ["declare_subscriber"], [f"{prefix}/**", *publish] if publish else []),
                 ("subscribe", ["ingress"], ["declare_subscriber"], expand(perms.subscribe)),
                 ("receive", ["egress"], ["put", "delete"], expand(perms.subscribe)),
                 ("query", ["ingress"], ["query", "declare_queryable"], expand(perms.query)),

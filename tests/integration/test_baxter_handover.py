@@ -29,6 +29,7 @@ from bus_schema import topics
 from services.bridge.baxter.keys import topic_key
 from services.bridge.baxter.messages import EndEffectorCommand, JointCommand
 from services.bridge.baxter.core import parse_gripper_args
+from services.launcher.logins import OBSERVER, login_profile
 from services.runtime import ServiceNode
 from services.runtime.testing import free_tcp_port, loopback_profile
 from tests.faults.matrix import stopped_before_the_fault
@@ -122,8 +123,9 @@ def _run_stack(tmp_path, run_id: str) -> _BaxterRun:
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     node = tap = None
     try:
-        node = ServiceNode("observer", loopback_profile(port), install_signal_handlers=False,
-                           connect_timeout_s=CONNECT_TIMEOUT_S)
+        profile = login_profile(loopback_profile(port, "baxter_fake"), tmp_path, run_id, OBSERVER,
+                                timeout_s=CONNECT_TIMEOUT_S)  # the run's own logins
+        node = ServiceNode(OBSERVER, profile, install_signal_handlers=False, connect_timeout_s=CONNECT_TIMEOUT_S)
         node.open()
         truth = node.subscribe(topics.SIM_TRUTH, queue_size=100_000)
         states = node.subscribe(topics.JOINT_STATE, queue_size=100_000)

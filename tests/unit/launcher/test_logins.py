@@ -45,8 +45,14 @@ def test_the_list_gives_each_service_its_own_keys(tmp_path):
     assert "handover/v1/motion/stop" in rules["launcher_publish"]["key_exprs"]  # its own protective stop
     demo = {r["id"]: r for r in run_access_control(["bridge"], "demo").zenoh_dict("handover/v1")["rules"]}
     assert "handover/v1/robot/joint_command" in demo["launcher_publish"]["key_exprs"]
-    with pytest.raises(LoginsError, match="'fake_baxter'"):
-        run_access_control(["fake_baxter"], "handover")
+    with pytest.raises(LoginsError, match="'kinect_v2'"):
+        run_access_control(["kinect_v2"], "handover")
+    # The Baxter profiles: the bridge sends the robot's ROS 1 commands, the fake Baxter its state.
+    ros = {r["id"]: r for r in run_access_control(["bridge", "fake_baxter"], "handover").zenoh_dict("handover/v1")[
+        "rules"]}
+    assert "**/robot/limb/right/joint_command" in ros["bridge_publish"]["key_exprs"]
+    assert "**/robot/limb/right/joint_command" not in ros["fake_baxter_publish"]["key_exprs"]
+    assert "**/robot/joint_states" in ros["fake_baxter_publish"]["key_exprs"]
 
 
 def test_the_default_profile_runs_with_logins_and_the_router_checks_them(tmp_path, monkeypatch):
