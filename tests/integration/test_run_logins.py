@@ -20,25 +20,32 @@ from bus_schema import decode, encode_for, topics
 from services.launcher.logins import OBSERVER, login_profile, logins_dir
 from services.runtime.errors import BusError
 from services.runtime.node import open_session
-from services.runtime.profile import free_tcp_port
+from services.runtime.profile import Profile, free_tcp_port
 from services.runtime.testing import interrupt_then_kill, loopback_profile, wait_until
 
 REPO = Path(__file__).resolve().parents[2]
 
 
-@pytest.fixture
-def stack(tmp_path):
-    """A default `handover-up --job none` stack (one episode with an absent receiver first)."""
+def _launch(tmp_path: Path, run_id: str, *args: str) -> tuple[subprocess.Popen, Profile]:
+    """`handover-up` (default profile, absent receiver) as a real process on a free port, its
+    output in a text pipe; the caller stops it (`interrupt_then_kill`)."""
     port = free_tcp_port()
     env = dict(os.environ, PYTHONUNBUFFERED="1")
     env.pop("HANDOVER_BUS_CREDENTIALS", None)
     proc = subprocess.Popen(
-        [sys.executable, "-m", "services.launcher", "--port", str(port), "--job", "none", "--receiver", "absent",
-         "--recording-dir", str(tmp_path), "--run-id", "auth"],
+        [sys.executable, "-m", "services.launcher", "--port", str(port), "--receiver", "absent", *args,
+         "--recording-dir", str(tmp_path), "--run-id", run_id],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env, cwd=REPO,
-        start_new_session=True)
+        start_new_session=True, text=True)
+    return proc, loopback_profile(port)
+
+
+@pytest.fixture
+def stack(tmp_path):
+    """A default `handover-up --job none` stack (one episode with an absent receiver first)."""
+    proc, profile = _launch(tmp_path, "auth", "--job", "none")
     try:
-        yield loopback_profile(port), tmp_path, proc
+        yield profile, tmp_path, proc
     finally:
         interrupt_then_kill(proc)
         if proc.stdout is not None:
@@ -111,15 +118,7 @@ def test_a_zero_grip_forged_with_the_grippers_own_login_is_reported_as_a_drop(tm
     """The worst case the logins leave (issue 17): a process with the gripper's login sends
     0 N grip commands at 500 Hz while the arm carries the object. The object falls; the run's
     summary says so from the simulation's truth and the run fails, whatever the bus said."""
-    port = free_tcp_port()
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
-    env.pop("HANDOVER_BUS_CREDENTIALS", None)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "services.launcher", "--port", str(port), "--receiver", "absent", "--episodes", "1",
-         "--recording-dir", str(tmp_path), "--run-id", "forged"],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env, cwd=REPO,
-        start_new_session=True, text=True)
-    profile = loopback_profile(port)
+    proc, profile = _launch(tmp_path, "forged", "--episodes", "1")
     try:
         observer = open_session(login_profile(profile, tmp_path, "forged", OBSERVER), "client", timeout_s=30.0,
                                 user=OBSERVER)
@@ -152,15 +151,7 @@ def test_forged_heartbeats_do_not_hide_a_frozen_service(tmp_path):
     """A process with the gripper's login beats for the planner (on the planner's key, which
     the router refuses it, and on its own key, which every reader refuses) while the planner
     is frozen: the supervisor still calls the planner silent within the freeze target."""
-    port = free_tcp_port()
-    env = dict(os.environ, PYTHONUNBUFFERED="1")
-    env.pop("HANDOVER_BUS_CREDENTIALS", None)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "services.launcher", "--port", str(port), "--receiver", "absent", "--episodes", "1",
-         "--recording-dir", str(tmp_path), "--run-id", "spoof"],
-        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, env=env, cwd=REPO,
-        start_new_session=True, text=True)
-    profile = loopback_profile(port)
+    proc, profile = _launch(tmp_path, "spoof", "--episodes", "1")
     planner_pid = None
     lines: list[str] = []
     reader = threading.Thread(target=lambda: lines.extend(iter(proc.stdout.readline, "")), daemon=True)
