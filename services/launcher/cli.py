@@ -7,6 +7,7 @@ import tempfile
 import time
 from pathlib import Path
 
+from services.launcher.checks import check_niced_services_are_report_only
 from services.launcher.core import check_one_simulated_kinect
 from services.launcher.node import JOBS, LaunchOptions, Launcher, LauncherUsageError
 from services.launcher.processes import DEFAULT_OUTPUT_QUEUE_LINES, stdout_outlet
@@ -57,6 +58,7 @@ def _run(args: argparse.Namespace) -> int:
             raise LauncherUsageError(f"--port {args.port!r} must be a port number 1–65535 or 'auto'")
     profile = profile.with_bus(endpoint, args.prefix)
     check_one_simulated_kinect(profile)
+    check_niced_services_are_report_only(profile)
     cfg = profile.launcher
     options = LaunchOptions(
         job=args.job or str(cfg.get("job", "handover")),

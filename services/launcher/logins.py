@@ -31,7 +31,8 @@ from pathlib import Path
 
 from bus_schema import topics as T
 from services.runtime.errors import ServiceError
-from services.runtime.profile import CREDENTIALS_ENV, AccessControl, BusAuth, Profile, UserPermissions
+from services.runtime.bus_access import CREDENTIALS_ENV, AccessControl, BusAuth, UserPermissions
+from services.runtime.profile import Profile
 
 #: The login of a process that only watches the bus (tests, tools): subscribe only.
 OBSERVER = "observer"

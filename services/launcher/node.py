@@ -49,7 +49,7 @@ from services.launcher.logins import RunLogins, child_env, start_run_logins
 from services.launcher.processes import Child, RouterProcess, emit, stdout_outlet
 from services.runtime import LivelinessWatcher, Profile, ServiceNode, open_session
 from services.runtime.errors import BusError, ServiceError
-from services.runtime.profile import zenoh_config_dict
+from services.runtime.zenoh_config import zenoh_config_dict
 from services.runtime.sched import ROUTER_PID_ENV
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130

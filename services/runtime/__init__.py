@@ -7,7 +7,8 @@ from services.runtime.liveliness import LivelinessWatcher, alive_services
 from services.runtime.logs import RateLimitedLog, kv, setup_logging
 from services.runtime.loop import RateLoop
 from services.runtime.node import Received, ServiceNode, TypedPublisher, TypedSubscription, open_session
-from services.runtime.profile import Profile, ServiceSpec, load_profile_file, zenoh_config, zenoh_config_dict
+from services.runtime.profile import Profile, ServiceSpec, load_profile_file
+from services.runtime.zenoh_config import zenoh_config, zenoh_config_dict
 
 __all__ = [
     "EXIT_BAD_INPUT",

@@ -30,7 +30,8 @@ from services.runtime.errors import BusError
 from services.runtime.faults import rules_for
 from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.loop import RateLoop
-from services.runtime.profile import Profile, zenoh_config
+from services.runtime.profile import Profile
+from services.runtime.zenoh_config import zenoh_config
 from services.runtime.pubsub import Received, SubscriptionStats, TypedPublisher, TypedSubscription
 from services.runtime.starvation import LATE_WAKE_REPORT_S, WakeSampler, late_wake_report
 

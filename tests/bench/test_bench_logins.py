@@ -23,8 +23,9 @@ import pytest
 from services.launcher.logins import create_run_logins
 from services.launcher.processes import RouterProcess
 from services.runtime.node import open_session
-from services.runtime.profile import AccessControl, BusAuth, UserPermissions, free_tcp_port, load_profile_file
-from services.runtime.profile import zenoh_config_dict
+from services.runtime.bus_access import AccessControl, BusAuth, UserPermissions
+from services.runtime.profile import free_tcp_port, load_profile_file
+from services.runtime.zenoh_config import zenoh_config_dict
 from services.runtime.testing import loopback_profile
 from tests.bench._report import save, summarize, table
 from tests.bench.pong import PING, PONG

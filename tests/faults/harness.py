@@ -43,7 +43,8 @@ from services.launcher.logins import OBSERVER, login_profile
 from services.runtime import ServiceNode
 from services.runtime.node import open_session
 from services.runtime.faults import ARM_DIR_ENV_VAR, ENV_VAR, arm_file_name
-from services.runtime.profile import BusAuth, free_tcp_port, load_profile_file
+from services.runtime.bus_access import BusAuth
+from services.runtime.profile import free_tcp_port, load_profile_file
 from tests.faults.invariants import FaultPlan, Injection, RunRecord
 from tests.faults.mutations import random_payloads, structured_payloads
 from tests.samples import SAMPLES

@@ -13,7 +13,7 @@ import pytest
 
 from bus_schema import MAX_PAYLOAD_BYTES
 from services.launcher.processes import RouterProcess
-from services.runtime.profile import zenoh_config_dict
+from services.runtime.zenoh_config import zenoh_config_dict
 from services.runtime.testing import client_session, loopback_profile, wait_until
 
 

@@ -17,7 +17,8 @@ from services.launcher.processes import RouterProcess
 from services.runtime.bus_tls import BusTls
 from services.runtime.errors import BusError, ProfileError
 from services.runtime.node import open_session
-from services.runtime.profile import free_tcp_port, load_profile_file, zenoh_config_dict
+from services.runtime.profile import free_tcp_port, load_profile_file
+from services.runtime.zenoh_config import zenoh_config_dict
 from services.runtime.testing import wait_until
 
 HOST = "127.0.0.1"

@@ -16,7 +16,8 @@ import pytest
 
 from services.runtime.node import open_session
 from services.launcher.certs import make_certificates
-from services.runtime.profile import free_tcp_port, load_profile_file, zenoh_config_dict
+from services.runtime.profile import free_tcp_port, load_profile_file
+from services.runtime.zenoh_config import zenoh_config_dict
 from services.runtime.testing import BusRouter, wait_until
 
 USERS = {"bridge": "b-pw", "ros1": "r-pw", "motion": "m-pw", "gripper": "g-pw", "supervisor": "s-pw",

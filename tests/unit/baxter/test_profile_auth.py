@@ -5,7 +5,8 @@ from __future__ import annotations
 import pytest
 
 from services.runtime.errors import ProfileError
-from services.runtime.profile import load_profile_file, zenoh_config, zenoh_config_dict
+from services.runtime.profile import load_profile_file
+from services.runtime.zenoh_config import zenoh_config, zenoh_config_dict
 
 BASE = """
 [bus]

@@ -120,7 +120,8 @@ def test_a_bad_output_queue_bound_is_one_line_naming_the_key(tmp_path, value):
 
 def test_the_router_answers_ready_on_its_merged_output_and_stops_cleanly():
     from services.launcher.processes import RouterProcess
-    from services.runtime.profile import free_tcp_port, zenoh_config_dict
+    from services.runtime.profile import free_tcp_port
+    from services.runtime.zenoh_config import zenoh_config_dict
 
     profile = load_profile_file("sim").with_bus(endpoint=f"tcp/127.0.0.1:{free_tcp_port()}")
     router = RouterProcess(json.dumps(zenoh_config_dict(profile, "router")))

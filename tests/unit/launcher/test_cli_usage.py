@@ -38,6 +38,20 @@ def test_a_recording_dir_that_is_a_file_is_refused(tmp_path):
     assert blocker.read_text() == "x"
 
 
+def test_a_niced_critical_service_is_refused_by_handover_up_before_anything_starts(tmp_path):
+    """The nice check is the launcher's (services/launcher/checks.py), made before anything starts."""
+    sim = (Path(__file__).resolve().parents[3] / "deploy" / "sim.toml").read_text()
+    bad = tmp_path / "niced.toml"
+    bad.write_text(sim.replace('[services.planner]\nmodule = "services.planner"',
+                               '[services.planner]\nmodule = "services.planner"\nnice = 5', 1))
+    assert "nice = 5" in bad.read_text()
+    out = _up("--profile", str(bad), "--recording-dir", str(tmp_path / "rec"))
+    assert out.returncode == 2, out.stderr + out.stdout
+    assert "services.planner.nice = 5, but the supervisor watches planner as critical" in out.stderr, out.stderr
+    assert len(out.stderr.strip().splitlines()) == 1 and "started" not in out.stdout
+    assert not (tmp_path / "rec").exists()
+
+
 @pytest.mark.parametrize("side", ["listen", "connect"])
 def test_an_off_loopback_zenoh_override_is_refused_before_anything_starts(tmp_path, side):
     """The loopback rule holds over the whole Zenoh config, overrides included (issue 17)."""

@@ -9,7 +9,8 @@ import pytest
 
 from services.launcher.logins import (OBSERVER, LoginsError, create_run_logins, run_access_control,
                                       start_run_logins)
-from services.runtime.profile import load_profile_file, zenoh_config_dict
+from services.runtime.profile import load_profile_file
+from services.runtime.zenoh_config import zenoh_config_dict
 
 
 def test_each_user_gets_a_private_file_and_the_router_every_line(tmp_path):

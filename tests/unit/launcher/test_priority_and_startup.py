@@ -12,6 +12,7 @@ import pytest
 
 from services.launcher.core import format_startup_times, startup_times_s
 from services.launcher.processes import Child
+from services.launcher.checks import check_niced_services_are_report_only
 from services.runtime.errors import ProfileError
 from services.runtime.profile import load_profile_file
 
@@ -53,38 +54,45 @@ def test_a_safety_service_may_not_be_niced(tmp_path):
 _SUPERVISED = '[services.supervisor]\n[services.supervisor.config.watch]\nrecorder = "report"\n'
 
 
+def _checked(path):
+    """The profile at `path` as `handover-up` takes it: loaded, then the launcher's nice check."""
+    profile = load_profile_file(path)
+    check_niced_services_are_report_only(profile)
+    return profile
+
+
 def test_a_service_the_supervisor_watches_as_critical_may_not_be_niced(tmp_path):
     with pytest.raises(ProfileError) as info:
-        load_profile_file(_profile(tmp_path, "[services.tracker]\nnice = 5\n" + _SUPERVISED))
+        _checked(_profile(tmp_path, "[services.tracker]\nnice = 5\n" + _SUPERVISED))
     message = str(info.value)
     assert "services.tracker.nice = 5" in message and "critical" in message
     assert 'services.supervisor.config.watch.tracker = "report"' in message and "\n" not in message
 
 
 def test_a_report_only_service_may_be_niced(tmp_path):
-    profile = load_profile_file(_profile(tmp_path, "[services.recorder]\nnice = 10\n[services.tracker]\nnice = 5\n"
-                                         + _SUPERVISED + 'tracker = "report"\n'))
+    profile = _checked(_profile(tmp_path, "[services.recorder]\nnice = 10\n[services.tracker]\nnice = 5\n"
+                                + _SUPERVISED + 'tracker = "report"\n'))
     assert profile.service("recorder").nice == 10 and profile.service("tracker").nice == 5
 
 
 def test_the_default_watch_table_lets_only_the_recorder_be_niced(tmp_path):
-    assert load_profile_file(_profile(tmp_path, "[services.recorder]\nnice = 10\n[services.supervisor]\n"
-                                      )).service("recorder").nice == 10
+    assert _checked(_profile(tmp_path, "[services.recorder]\nnice = 10\n[services.supervisor]\n"
+                             )).service("recorder").nice == 10
     with pytest.raises(ProfileError, match=r"services\.planner\.nice = 2"):
-        load_profile_file(_profile(tmp_path, "[services.planner]\nnice = 2\n[services.supervisor]\n"))
+        _checked(_profile(tmp_path, "[services.planner]\nnice = 2\n[services.supervisor]\n"))
 
 
 def test_another_bad_supervisor_key_does_not_switch_the_check_off(tmp_path):
     """`episodes = -1` is the supervisor's to reject (its CLI may override it); the niced
     tracker is still refused."""
     with pytest.raises(ProfileError, match=r"services\.tracker\.nice = 5"):
-        load_profile_file(_profile(tmp_path, "[services.tracker]\nnice = 5\n[services.supervisor]\n"
-                                   "[services.supervisor.config]\nepisodes = -1\n"))
+        _checked(_profile(tmp_path, "[services.tracker]\nnice = 5\n[services.supervisor]\n"
+                          "[services.supervisor.config]\nepisodes = -1\n"))
 
 
 def test_a_bad_watch_table_is_left_to_the_supervisor(tmp_path):
-    profile = load_profile_file(_profile(tmp_path, "[services.tracker]\nnice = 5\n" + _SUPERVISED
-                                         + 'tracker = "sometimes"\n'))
+    profile = _checked(_profile(tmp_path, "[services.tracker]\nnice = 5\n" + _SUPERVISED
+                                + 'tracker = "sometimes"\n'))
     assert profile.service("tracker").nice == 5
 
 
@@ -161,7 +169,7 @@ def test_router_config_keeps_scouting_off_with_the_delay_removed():
     from dataclasses import replace
 
     from services.launcher.core import router_zenoh_overrides
-    from services.runtime.profile import zenoh_config_dict
+    from services.runtime.zenoh_config import zenoh_config_dict
 
     profile = load_profile_file("sim")
     conf = zenoh_config_dict(replace(profile, zenoh_overrides=router_zenoh_overrides(profile.zenoh_overrides)),

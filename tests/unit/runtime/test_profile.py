@@ -6,7 +6,8 @@ import pytest
 
 from bus_schema import MAX_PAYLOAD_BYTES
 from services.runtime.errors import ProfileError
-from services.runtime.profile import load_profile_file, validate_endpoint, zenoh_config, zenoh_config_dict
+from services.runtime.profile import load_profile_file, validate_endpoint
+from services.runtime.zenoh_config import zenoh_config, zenoh_config_dict
 
 
 def test_default_profile_is_loopback_with_scouting_off():

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from services.launcher.processes import RouterProcess
-from services.runtime.profile import zenoh_config_dict
+from services.runtime.zenoh_config import zenoh_config_dict
 from services.runtime import open_session
 from services.runtime.testing import BusRouter, loopback_profile, wait_until
 from services.runtime.zenoh_threads import (
