@@ -50,10 +50,11 @@ def _run(args: argparse.Namespace) -> int:
     profile = load_profile_file(args.profile)
     endpoint = args.endpoint
     if args.port is not None:
+        scheme = "tls" if profile.tls is not None else "tcp"  # a TLS profile stays TLS on another port
         if args.port == "auto":
-            endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+            endpoint = f"{scheme}/127.0.0.1:{free_tcp_port()}"
         elif args.port.isdigit() and 0 < int(args.port) < 65536:
-            endpoint = f"tcp/127.0.0.1:{int(args.port)}"
+            endpoint = f"{scheme}/127.0.0.1:{int(args.port)}"
         else:
             raise LauncherUsageError(f"--port {args.port!r} must be a port number 1–65535 or 'auto'")
     profile = profile.with_bus(endpoint, args.prefix)

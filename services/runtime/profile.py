@@ -137,6 +137,9 @@ class Profile:
             prefix=prefix if prefix else self.prefix,
         )
         validate_endpoint(new.endpoint, new.allow_non_loopback)
+        if new.tls is not None and not new.endpoint.startswith("tls/"):
+            raise ProfileError(f"{self.path}: this profile's bus is TLS only ([bus.tls]); the endpoint "
+                               f"{new.endpoint!r} must be tls/<host>:<port>")
         return new
 
 

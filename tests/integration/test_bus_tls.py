@@ -85,8 +85,11 @@ def test_a_tls_profile_is_checked_when_it_loads(tmp_path):
     path.write_text(text.replace('key_file = "', 'key = "'))
     with pytest.raises(ProfileError, match=r"\[bus.tls\] must hold exactly"):
         load_profile_file(path)
-    (tmp_path / "lab" / f"{HOST}.key").chmod(0o644)
     path.write_text(text)
+    with pytest.raises(ProfileError, match="TLS only"):  # a CLI override cannot turn TLS off
+        load_profile_file(path).with_bus(endpoint="tcp/127.0.0.1:7447")
+    assert load_profile_file(path).with_bus(endpoint="tls/127.0.0.1:7448").endpoint == "tls/127.0.0.1:7448"
+    (tmp_path / "lab" / f"{HOST}.key").chmod(0o644)
     with pytest.raises(ProfileError, match="readable by others"):
         zenoh_config_dict(load_profile_file(path), "client", user="alice")
 
