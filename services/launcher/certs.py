@@ -21,6 +21,7 @@ import argparse
 import datetime
 import ipaddress
 import os
+import re
 import sys
 from pathlib import Path
 
@@ -32,6 +33,27 @@ VALID_DAYS = 825
 
 class CertsError(ServiceError):
     """The certificates cannot be made (the message says what to check)."""
+
+
+class CertsUsageError(CertsError):
+    """A host name that cannot be a certificate's name, or files that exist already: exit 2."""
+
+    bad_input = True
+
+
+#: A DNS name of letters, digits and hyphens (RFC 1123 labels).
+_LABEL = r"[A-Za-z0-9]([A-Za-z0-9-]{0,61}[A-Za-z0-9])?"
+_DNS_NAME = re.compile(rf"^(?=.{{1,253}}$){_LABEL}(\.{_LABEL})*$")
+
+
+def check_host(host: str) -> None:
+    """Raise CertsUsageError unless `host` is an IP address or a DNS name."""
+    try:
+        ipaddress.ip_address(host)
+    except ValueError:
+        if not _DNS_NAME.match(host):
+            raise CertsUsageError(f"host {host!r} is neither an IP address nor a DNS name (letters, digits, "
+                                  "hyphens and dots)") from None
 
 
 def _name(common_name: str):
@@ -52,7 +74,8 @@ def _subject_alt_name(host: str):
 
 
 def _write(path: Path, data: bytes, private: bool) -> None:
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600 if private else 0o644)
+    """A new file (never an existing one, nor through a symbolic link), 600 when `private`."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600 if private else 0o644)
     with os.fdopen(fd, "wb") as out:
         out.write(data)
 
@@ -69,10 +92,14 @@ def make_certificates(directory: Path, hosts: list[str]) -> dict[str, Path]:
     from cryptography.hazmat.primitives.asymmetric import ec
 
     if not hosts:
-        raise CertsError("name at least one host (a DNS name or an IP address)")
+        raise CertsUsageError("name at least one host (a DNS name or an IP address)")
     for host in hosts:
-        if not host or "/" in host or host.startswith("."):
-            raise CertsError(f"host {host!r} cannot name a certificate file")
+        check_host(host)
+    names = ["ca.key", "ca.pem"] + [f"{h}{suffix}" for h in hosts for suffix in (".key", ".pem")]
+    existing = [n for n in names if (directory / n).exists() or (directory / n).is_symlink()]
+    if existing:
+        raise CertsUsageError(f"{directory} holds {', '.join(existing)} already: a new authority would "
+                              "invalidate every host's certificate; choose an empty folder")
     now = datetime.datetime.now(datetime.timezone.utc)
     start, end = now - datetime.timedelta(minutes=5), now + datetime.timedelta(days=VALID_DAYS)
     ca_key = ec.generate_private_key(ec.SECP256R1())
@@ -105,7 +132,7 @@ def make_certificates(directory: Path, hosts: list[str]) -> dict[str, Path]:
             paths[host] = directory / f"{host}.pem"
             _write(paths[host], cert.public_bytes(pem), private=False)
     except OSError as exc:
-        raise CertsError(f"cannot write certificates into {directory}: {exc.strerror}") from None
+        raise CertsError(f"cannot write certificates into {directory}: {exc.strerror or exc}") from None
     return paths
 
 
@@ -122,7 +149,7 @@ def main(argv: list[str] | None = None) -> int:
         paths = make_certificates(args.directory.expanduser(), args.hosts)
     except CertsError as exc:
         sys.stderr.write(f"handover-certs: error: {exc}\n")
-        return 1
+        return 2 if getattr(exc, "bad_input", False) else 1
     lines = [f"authority: {paths.pop('ca')} (keep ca.key offline once every host has its certificate)"]
     lines += [f"{host}: {path} and {path.with_suffix('.key')}" for host, path in paths.items()]
     sys.stdout.write("\n".join(lines) + "\n")

@@ -51,7 +51,10 @@ class EpisodeReport:
 
     @property
     def ok(self) -> bool:
-        return self.summary.outcome in SAFE_OUTCOMES and not self.dropped
+        """Safe, never dropped, and (in simulation) released only into the receiver's hand."""
+        released_elsewhere = (self.summary.outcome == "released" and self.final_holder is not None
+                              and self.final_holder != "receiver")
+        return self.summary.outcome in SAFE_OUTCOMES and not self.dropped and not released_elsewhere
 
 
 @dataclass

@@ -25,6 +25,7 @@ from __future__ import annotations
 import os
 import secrets
 import shutil
+import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -72,6 +73,12 @@ class LoginsError(ServiceError):
     """The per-run logins cannot be made (the message says what to check)."""
 
 
+class LoginsProfileError(LoginsError):
+    """The profile asks for per-run logins the launcher cannot make: a usage error (exit 2)."""
+
+    bad_input = True
+
+
 @dataclass(frozen=True)
 class RunLogins:
     """The files of one run's logins (see the module docstring)."""
@@ -90,6 +97,12 @@ class RunLogins:
         shutil.rmtree(self.directory, ignore_errors=True)
 
 
+def remove_logins(logins: RunLogins | None) -> None:
+    """Delete a run's logins folder (nothing when the run has none)."""
+    if logins is not None:
+        logins.remove()
+
+
 def logins_dir(recording_dir: Path, run_id: str) -> Path:
     """The run's logins folder, beside its recording and its logs."""
     return recording_dir / f"handover-{run_id}-bus"
@@ -103,23 +116,28 @@ def _write_private(path: Path, text: str) -> None:
 
 def create_run_logins(directory: Path, users: Iterable[str]) -> RunLogins:
     """Make `directory` (mode 700, must not exist) with a random password for each of `users`.
+    The files are written in a private folder beside it, renamed into place once complete: a
+    reader never sees a half-written login, and a failure leaves nothing behind.
 
     Raises:
         LoginsError: the folder exists already or cannot be written.
     """
+    if directory.exists():
+        raise LoginsError(f"the bus logins folder {directory} exists already (another run with this --run-id, "
+                          "or one killed before it could delete it: remove the folder)")
+    staging: Path | None = None
     try:
         directory.parent.mkdir(parents=True, exist_ok=True)
-        directory.mkdir(mode=0o700)
-        os.chmod(directory, 0o700)  # whatever the umask
+        staging = Path(tempfile.mkdtemp(prefix=f".{directory.name}-", dir=directory.parent))  # mode 700
         passwords = {user: secrets.token_urlsafe(24) for user in sorted(set(users))}
         for user, password in passwords.items():
-            _write_private(directory / user, f"{user}:{password}\n")
-        _write_private(directory / DICTIONARY, "".join(f"{u}:{p}\n" for u, p in passwords.items()))
-    except FileExistsError:
-        raise LoginsError(f"the bus logins folder {directory} exists already "
-                          "(another run with this --run-id?)") from None
+            _write_private(staging / user, f"{user}:{password}\n")
+        _write_private(staging / DICTIONARY, "".join(f"{u}:{p}\n" for u, p in passwords.items()))
+        os.rename(staging, directory)
     except OSError as exc:
-        raise LoginsError(f"cannot write the bus logins folder {directory}: {exc.strerror}") from None
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)
+        raise LoginsError(f"cannot write the bus logins folder {directory}: {exc.strerror or exc}") from None
     return RunLogins(directory)
 
 
@@ -133,8 +151,10 @@ def run_access_control(services: Iterable[str], job: str) -> AccessControl:
     users: dict[str, UserPermissions] = {}
     for name in services:
         if name not in PUBLISHES:
-            raise LoginsError(f"service {name!r} has no known keys for per-run logins: "
-                              "set [bus] logins = \"off\" in the profile, or give it [bus.auth] and an ACL")
+            raise LoginsProfileError(f"service {name!r} has no known keys for per-run bus logins "
+                                     f"(services.launcher.logins.PUBLISHES knows {', '.join(sorted(PUBLISHES))}); "
+                                     "give the profile fixed logins and an access list ([bus.auth], "
+                                     "[bus.access_control]) instead")
         own = tuple(f"{{prefix}}/{t.suffix}" for t in PUBLISHES[name]) + ROS_PUBLISHES.get(name, ())
         users[name] = UserPermissions(publish=own, subscribe=everything)
     follows = (T.SUPERVISOR_STATE, T.EPISODE, T.SIM_TRUTH, T.JOINT_STATE)
@@ -157,7 +177,8 @@ def start_run_logins(profile: Profile, services: list[str], recording_dir: Path,
         return None, profile, profile.access_control
     acl = run_access_control(services, job)  # refuses an unknown service before any file is made
     logins = create_run_logins(logins_dir(recording_dir, run_id), [*services, LAUNCHER, OBSERVER])
-    return logins, replace(profile, auth=BusAuth(logins.dictionary)), acl
+    # The run's own dictionary, whatever HANDOVER_BUS_CREDENTIALS says in the launcher's environment.
+    return logins, replace(profile, auth=BusAuth(logins.dictionary, env_override=False)), acl
 
 
 def child_env(logins: RunLogins | None, service: str) -> dict[str, str]:
@@ -187,3 +208,11 @@ def login_profile(profile: Profile, recording_dir: Path, run_id: str, user: str 
             raise LoginsError(f"no bus login {path} after {timeout_s:.0f} s (is handover-up running that run?)")
         time.sleep(0.05)
     return replace(profile, auth=BusAuth(path))
+
+
+def bus_line(profile: Profile, router_pid: int, logins_folder: Path | None) -> str:
+    """The launcher's first line: where the bus is and who may use it."""
+    where = "other hosts allowed" if profile.allow_non_loopback else "loopback only"
+    guard = (f"logins in {logins_folder}/" if logins_folder is not None else "fixed logins" if profile.auth
+             else "NO LOGINS: any local process may publish")
+    return f"bus on {profile.endpoint} (router pid {router_pid}, {where}, prefix {profile.prefix}, {guard})"

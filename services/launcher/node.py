@@ -45,7 +45,7 @@ from services.launcher.core import (
     start_order,
 )
 from services.launcher.logfiles import LogFiles, own_line
-from services.launcher.logins import RunLogins, child_env, start_run_logins
+from services.launcher.logins import RunLogins, bus_line, child_env, remove_logins, start_run_logins
 from services.launcher.processes import Child, RouterProcess, emit, stdout_outlet
 from services.runtime import LivelinessWatcher, Profile, ServiceNode, open_session
 from services.runtime.errors import BusError, ServiceError
@@ -247,19 +247,22 @@ class Launcher:
         opts = self.options
         self.logins, self.bus_profile, acl = start_run_logins(
             self.profile, [s.name for s in self.specs], opts.recording_dir, opts.run_id, opts.job)
-        router_profile = replace(self.bus_profile, access_control=acl,
-                                 zenoh_overrides=router_zenoh_overrides(self.profile.zenoh_overrides))
-        router = RouterProcess(json.dumps(zenoh_config_dict(router_profile, "router")), self.width)
-        try:
+        router: RouterProcess | None = None
+        try:  # from here on, nothing may leave the run's logins behind
+            router_profile = replace(self.bus_profile, access_control=acl,
+                                     zenoh_overrides=router_zenoh_overrides(self.profile.zenoh_overrides))
+            router = RouterProcess(json.dumps(zenoh_config_dict(router_profile, "router")), self.width)
             router.start()
             self.router_pid = router.pid
             session = open_session(self.bus_profile, "client", timeout_s=5.0, user="launcher")
-        except (BusError, RuntimeError) as exc:
+        except BaseException as exc:
             for s, h in previous.items():
                 signal.signal(s, h)
-            router.stop()
-            if self.logins is not None:
-                self.logins.remove()
+            if router is not None:
+                router.stop()
+            remove_logins(self.logins)
+            if not isinstance(exc, (BusError, RuntimeError)):
+                raise
             raise BusPortError(
                 f"cannot host the bus on {self.profile.endpoint} (is another handover-up running? "
                 f"use --port auto): {_without_source_locations(str(exc))}"
@@ -269,8 +272,7 @@ class Launcher:
         code = EXIT_FAILED
         try:
             self._open_logs(router)
-            say(f"bus on {self.profile.endpoint} (router pid {router.pid}, loopback only, "
-                f"prefix {self.profile.prefix}" + (f", logins in {self.logins.directory}/)" if self.logins else ")"))
+            say(bus_line(self.profile, router.pid, self.logins.directory if self.logins else None))
             if self.logs.error is None:
                 say(f"logs of every service: {self.logs.directory}/"
                     + ("" if self.verbose else " (--verbose prints them here too)"))
@@ -304,8 +306,7 @@ class Launcher:
             watcher.undeclare()
             session.close()
             router.stop()
-            if self.logins is not None:
-                self.logins.remove()
+            remove_logins(self.logins)
             for s, h in previous.items():
                 signal.signal(s, h)
         if self.failure and code == EXIT_OK:

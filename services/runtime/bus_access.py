@@ -31,9 +31,12 @@ class BusAuth:
 
     Attributes:
         credentials_file: the file named in the profile (relative to the profile's folder).
+        env_override: whether ``HANDOVER_BUS_CREDENTIALS`` may replace it (not for the
+            dictionary `handover-up` makes for its own run).
     """
 
     credentials_file: Path
+    env_override: bool = True
 
     def checked_file(self) -> Path:
         """The credentials file in use (env override first), checked to exist and be private.
@@ -43,7 +46,8 @@ class BusAuth:
         """
         import os
 
-        path = Path(os.environ.get(CREDENTIALS_ENV) or self.credentials_file).expanduser()
+        from_env = os.environ.get(CREDENTIALS_ENV) if self.env_override else None
+        path = Path(from_env or self.credentials_file).expanduser()
         if not path.is_file():
             raise ProfileError(f"bus credentials file {path} not found (set [bus.auth].credentials_file "
                                f"or {CREDENTIALS_ENV}; one 'user:password' line per service)")

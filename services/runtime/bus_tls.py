@@ -43,6 +43,8 @@ class BusTls:
         Raises:
             ProfileError: a file is missing, or the key is readable by others.
         """
+        if bool(os.environ.get(CERT_ENV)) != bool(os.environ.get(KEY_ENV)):
+            raise ProfileError(f"set both {CERT_ENV} and {KEY_ENV} (this host's certificate and its key), or neither")
         self = replace(self, cert_file=Path(os.environ.get(CERT_ENV) or self.cert_file).expanduser(),
                        key_file=Path(os.environ.get(KEY_ENV) or self.key_file).expanduser())
         for name in _KEYS:

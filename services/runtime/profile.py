@@ -95,7 +95,8 @@ class Profile:
         access_control: the router's access control list (``[bus.access_control]``), or None.
         logins: ``per-run`` (``handover-up`` makes a login per service for each run, and a
             service finds its own through ``HANDOVER_BUS_CREDENTIALS``:
-            `services.launcher.logins`) or ``off``.
+            `services.launcher.logins`; the default without ``[bus.auth]``) or ``off`` (no
+            per-run logins: fixed ones from ``[bus.auth]``, or none at all when said so).
         tls: mutual TLS on the bus (``[bus.tls]``, `services.runtime.bus_tls`), or None.
         fault_injection: ``[testing] fault_injection = true``: the services take
             `HANDOVER_FAULTS` rules (`services.runtime.faults`); fault-test profiles only.
@@ -227,6 +228,27 @@ def _as_spec(name: str, table: Any, path: Path) -> ServiceSpec:
     )
 
 
+#: Zenoh settings a profile's ``[bus.zenoh]`` may not set: the bus's logins, access list and
+#: TLS come only from ``[bus.auth]``, ``[bus.access_control]``, ``[bus.tls]`` and the launcher,
+#: and no plugin or admin space is opened.
+_GUARDED_OVERRIDES = ("access_control", "plugins", "plugins_loading", "adminspace")
+_GUARDED_TRANSPORT = ("auth",)
+
+
+def _check_overrides(overrides: dict[str, Any], path: Path) -> None:
+    for key in _GUARDED_OVERRIDES:
+        if key in overrides:
+            raise ProfileError(f"{path}: [bus.zenoh] may not set {key} (the bus's security comes from [bus.*])")
+    transport = overrides.get("transport", {})
+    if not isinstance(transport, dict) or any(k in transport for k in _GUARDED_TRANSPORT) \
+            or "tls" in (transport.get("link", {}) if isinstance(transport.get("link"), dict) else {}):
+        raise ProfileError(f"{path}: [bus.zenoh.transport] may not set auth or link.tls "
+                           "(use [bus.auth] and [bus.tls])")
+    for side in ("listen", "connect"):
+        if side in overrides and not isinstance(overrides[side], dict):
+            raise ProfileError(f"{path}: [bus.zenoh.{side}] must be a table: {side} = {{ endpoints = [...] }}")
+
+
 def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
     """Load and validate a deploy profile by name or path.
 
@@ -259,8 +281,9 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
     access_control = parse_access_control(bus.get("access_control"), path)
     if allow and auth is None:
         raise ProfileError(f"{path}: bus.allow_non_loopback = true needs [bus.auth] (user/password per service)")
+    _check_overrides(overrides, path)
     for side in ("listen", "connect"):  # the Zenoh overrides obey the loopback rule too, checked at load
-        endpoints = overrides.get(side, {}).get("endpoints", []) if isinstance(overrides.get(side), dict) else []
+        endpoints = overrides.get(side, {}).get("endpoints", [])
         for endpoint in endpoints if isinstance(endpoints, list) else [endpoints]:
             try:
                 validate_endpoint(endpoint, allow)
@@ -268,7 +291,8 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
                 raise ProfileError(f"{path}: [bus.zenoh.{side}] {exc}") from None
     if access_control is not None and auth is None:
         raise ProfileError(f"{path}: [bus.access_control] names users, so it needs [bus.auth]")
-    logins = bus.get("logins", "off")
+    # Authenticated by default: per-run logins, unless the profile has fixed ones ([bus.auth]).
+    logins = bus.get("logins", "off" if auth is not None else "per-run")
     if logins not in ("per-run", "off"):
         raise ProfileError(f"{path}: bus.logins must be \"per-run\" or \"off\", not {logins!r}")
     if logins == "per-run" and auth is not None:

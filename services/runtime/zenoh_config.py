@@ -7,6 +7,7 @@ router's access list and TLS when the profile has them.
 
 from __future__ import annotations
 
+import copy
 import json
 from typing import Any, Literal
 
@@ -61,15 +62,25 @@ def zenoh_config_dict(profile: Profile, mode: Literal["client", "router", "peer"
         conf["access_control"] = profile.access_control.zenoh_dict(profile.prefix)
     if profile.tls is not None:
         conf["transport"]["link"]["tls"] = profile.tls.zenoh_dict()
+    # Copies: the merge below changes nested tables in place.
+    access_control, auth, tls = copy.deepcopy((conf.get("access_control"), conf["transport"].get("auth"),
+                                               conf["transport"]["link"].get("tls")))
     _deep_merge(conf, profile.zenoh_overrides)
-    # Whatever the overrides say, scouting stays off, every endpoint obeys the loopback rule
-    # and no message above the bus cap is taken in.
+    # Whatever the overrides say, scouting stays off, the logins, the access list and TLS are
+    # the profile's own, every endpoint obeys the loopback rule (and is tls/ on a TLS bus) and
+    # no message above the bus cap is taken in.
     conf["scouting"]["multicast"]["enabled"] = False
     conf["scouting"]["gossip"]["enabled"] = False
+    _restore(conf, "access_control", access_control)
+    _restore(conf["transport"], "auth", auth)
+    _restore(conf["transport"].setdefault("link", {}), "tls", tls)
     for side in ("listen", "connect"):
-        endpoints = conf.get(side, {}).get("endpoints", [])
+        raw = conf.get(side) or {}
+        endpoints = raw.get("endpoints", []) if isinstance(raw, dict) else raw
         for endpoint in endpoints if isinstance(endpoints, list) else [endpoints]:
-            validate_endpoint(endpoint, profile.allow_non_loopback)
+            validate_endpoint(str(endpoint), profile.allow_non_loopback)
+            if profile.tls is not None and not str(endpoint).startswith("tls/"):
+                raise ProfileError(f"bus endpoint {endpoint!r}: this profile's bus is TLS only ([bus.tls])")
     rx = conf["transport"].setdefault("link", {}).setdefault("rx", {})
     rx["max_message_size"] = min(int(rx.get("max_message_size", _MAX_MESSAGE_BYTES)), _MAX_MESSAGE_BYTES)
     return conf
@@ -84,6 +95,14 @@ def zenoh_config(profile: Profile, mode: Literal["client", "router", "peer"], us
         return zenoh.Config.from_json5(json.dumps(zenoh_config_dict(profile, mode, user)))
     except Exception as exc:  # noqa: BLE001 - zenoh.ZError, or our own checks: one ProfileError line either way
         raise ProfileError(f"invalid Zenoh settings in the profile: {exc}") from None
+
+
+def _restore(table: dict[str, Any], key: str, value: Any) -> None:
+    """`table[key]` back to `value` (removed when None), whatever an override made of it."""
+    if value is None:
+        table.pop(key, None)
+    else:
+        table[key] = value
 
 
 def _deep_merge(into: dict[str, Any], other: dict[str, Any]) -> None:

@@ -20,7 +20,7 @@ from services.runtime.node import heartbeat_period_s
 from services.runtime.sched import MAX_EXCUSED_S, ServiceStarvation, delivery_pids
 from services.supervisor.config import SupervisorConfig
 from services.supervisor.core import Actions, Sequencer, Snapshot, TargetFilter
-from services.supervisor.truth import outcome_from_truth
+from services.supervisor.truth import outcome_from_truth, simulated_robot
 from services.supervisor.watchdog import Watchdog, judging_for_beats, resolve_heartbeat_timeout_s
 
 log = logging.getLogger(__name__)
@@ -87,7 +87,8 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
             ("wrench", topics.WRIST_WRENCH, 64), ("joints", topics.JOINT_STATE, 64),
         )}
         heartbeats = node.subscribe(topics.HEARTBEAT, queue_size=512, wake=False)
-        truth = node.subscribe(topics.SIM_TRUTH, queue_size=1, wake=False)  # simulation only: never for control
+        # The simulation's truth decides the outcome (never control), and only where a simulated robot sends it.
+        truth = node.subscribe(topics.SIM_TRUTH, queue_size=1, wake=False) if simulated_robot(profile) else None
 
         def on_liveliness(name: str, alive: bool) -> None:
             liveliness_events.put((name, alive, time.monotonic()))
@@ -122,7 +123,7 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                     log.info("phase", extra=kv(phase=sequencer.phase, episode=sequencer.episode_id,
                                                reason=sequencer.reason))
             if actions.summary is not None:
-                newest_truth = truth.latest()
+                newest_truth = truth.latest() if truth is not None else None
                 actions.summary = outcome_from_truth(actions.summary, newest_truth.msg if newest_truth else None)
                 episode_pub.put(**actions.summary)
                 log.info("episode summary",

@@ -86,6 +86,11 @@ def test_a_tls_profile_is_checked_when_it_loads(tmp_path):
     with pytest.raises(ProfileError, match=r"\[bus.tls\] must hold exactly"):
         load_profile_file(path)
     path.write_text(text)
+    router = zenoh_config_dict(load_profile_file(path), "router")
+    assert router["listen"]["endpoints"] == [f"tls/{HOST}:7447"] and router["transport"]["link"]["tls"]["enable_mtls"]
+    with pytest.raises(ProfileError, match="TLS only"):  # no plain-TCP listener beside the TLS one
+        zenoh_config_dict(dataclasses.replace(load_profile_file(path), zenoh_overrides={
+            "listen": {"endpoints": [f"tls/{HOST}:7447", f"tcp/{HOST}:7448"]}}), "router")
     with pytest.raises(ProfileError, match="TLS only"):  # a CLI override cannot turn TLS off
         load_profile_file(path).with_bus(endpoint="tcp/127.0.0.1:7447")
     assert load_profile_file(path).with_bus(endpoint="tls/127.0.0.1:7448").endpoint == "tls/127.0.0.1:7448"
@@ -107,3 +112,18 @@ def test_handover_certs_writes_private_keys_and_says_where(tmp_path, capsys):
     assert names.get_values_for_type(x509.DNSName) == ["kinect-pc"]
     ca = x509.load_pem_x509_certificate((tmp_path / "tls" / "ca.pem").read_bytes())
     cert.verify_directly_issued_by(ca)
+
+
+@pytest.mark.parametrize("hosts", [["häst"], ["a b"], ["../x"], ["x-"]])
+def test_handover_certs_refuses_a_bad_host_before_writing_anything(tmp_path, capsys, hosts):
+    assert certs_main([str(tmp_path / "tls"), "good-host", *hosts]) == 2
+    assert "neither an IP address nor a DNS name" in capsys.readouterr().err
+    assert not (tmp_path / "tls").exists() or not any((tmp_path / "tls").iterdir())
+
+
+def test_handover_certs_never_overwrites_an_authority(tmp_path, capsys):
+    assert certs_main([str(tmp_path / "tls"), "robot-pc"]) == 0
+    ca = (tmp_path / "tls" / "ca.pem").read_bytes()
+    assert certs_main([str(tmp_path / "tls"), "kinect-pc"]) == 2
+    assert "holds ca.key, ca.pem already" in capsys.readouterr().err
+    assert (tmp_path / "tls" / "ca.pem").read_bytes() == ca and not (tmp_path / "tls" / "kinect-pc.pem").exists()

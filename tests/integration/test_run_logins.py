@@ -205,3 +205,22 @@ def test_forged_heartbeats_do_not_hide_a_frozen_service(tmp_path):
         reader.join(5.0)
         if proc.stdout is not None:
             proc.stdout.close()
+
+
+def test_a_failed_start_leaves_no_logins_behind(tmp_path):
+    """The router cannot listen (its port is taken): exit 2, one line, and the run's logins
+    folder is gone."""
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        env = {k: v for k, v in os.environ.items() if k != "HANDOVER_BUS_CREDENTIALS"}
+        res = subprocess.run([sys.executable, "-m", "services.launcher", "--port", str(port), "--job", "check",
+                              "--recording-dir", str(tmp_path), "--run-id", "busy"], capture_output=True, text=True,
+                             timeout=120, env=env, cwd=REPO)
+    assert res.returncode == 2, res.stdout[-2000:] + res.stderr[-2000:]
+    assert "cannot host the bus" in res.stderr and len(res.stderr.strip().splitlines()) == 1, res.stderr
+    assert not logins_dir(tmp_path, "busy").exists()
+    assert not any(p.name.startswith(".handover-busy-bus") for p in tmp_path.iterdir())

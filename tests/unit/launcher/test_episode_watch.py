@@ -38,3 +38,10 @@ def test_only_the_supervisors_first_summary_of_an_episode_counts():
     watch.summary(_summary(1))
     assert not watch.accepts(_summary(1))  # a copy: the first one stands
     assert watch.accepts(_summary(2))
+
+
+def test_released_is_not_ok_when_the_truth_has_the_object_elsewhere():
+    watch = EpisodeWatch()
+    watch.state(_state(1, "transfer"))
+    watch.truth(SimTruth(**H, source="bridge", held_by="gripper"))
+    assert not watch.summary(_summary(1)).ok

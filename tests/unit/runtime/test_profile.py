@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from bus_schema import MAX_PAYLOAD_BYTES
@@ -118,3 +120,34 @@ def test_a_service_may_have_its_own_stop_time_out(tmp_path):
         path.write_text(f'[bus]\nendpoint = "tcp/127.0.0.1:7999"\n[services.recorder]\nstop_timeout_s = {bad}\n')
         with pytest.raises(ProfileError, match="stop_timeout_s must be a number of seconds"):
             load_profile_file(path)
+
+
+
+@pytest.mark.parametrize(("table", "says"), [
+    ("[bus.zenoh.access_control]\nenabled = false\n", "may not set access_control"),
+    ("[bus.zenoh.transport.auth.usrpwd]\ndictionary_file = \"/tmp/x\"\n", "may not set auth or link.tls"),
+    ("[bus.zenoh.transport.link.tls]\nenable_mtls = false\n", "may not set auth or link.tls"),
+    ("[bus.zenoh.plugins.rest]\nhttp_port = 8000\n", "may not set plugins"),
+    ("[bus.zenoh]\nlisten = [\"tcp/0.0.0.0:7999\"]\n", "must be a table"),
+])
+def test_zenoh_overrides_cannot_touch_the_bus_security(tmp_path, table, says):
+    """The logins, the access list and TLS come only from [bus.*] (issue 17)."""
+    path = tmp_path / "p.toml"
+    path.write_text('[bus]\nendpoint = "tcp/127.0.0.1:7999"\n' + table)
+    with pytest.raises(ProfileError, match=says) as info:
+        load_profile_file(path)
+    assert "\n" not in str(info.value)
+
+
+def test_a_profile_in_code_cannot_override_the_access_list_either():
+    from dataclasses import replace
+
+    from services.runtime.bus_access import AccessControl, BusAuth
+
+    base = load_profile_file("sim")
+    profile = replace(base, auth=BusAuth(Path("/nonexistent"), env_override=False), access_control=AccessControl(),
+                      zenoh_overrides={"access_control": {"enabled": False}})
+    with pytest.raises(ProfileError, match="not found"):  # the dictionary is checked, the list is the profile's
+        zenoh_config_dict(profile, "router")
+    no_auth = replace(base, access_control=AccessControl(), zenoh_overrides={"access_control": {"enabled": False}})
+    assert zenoh_config_dict(no_auth, "router")["access_control"]["enabled"] is True
