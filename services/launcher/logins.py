@@ -141,8 +141,27 @@ def create_run_logins(directory: Path, users: Iterable[str]) -> RunLogins:
     return RunLogins(directory)
 
 
-def run_access_control(services: Iterable[str], job: str) -> AccessControl:
-    """The router's deny-by-default list for one run of `services` with `job`.
+#: Keys a service publishes only in some set-ups: the tracker renders the Kinect only with
+#: ``sensor = "sim"``, the bridge runs the simulation (and its truth) only with the sim backend.
+_SIM_ONLY: dict[str, tuple[T.Topic, ...]] = {"tracker": (T.SKELETON, T.DEPTH, T.KINECT_TRUTH), "bridge": (T.SIM_TRUTH,)}
+
+
+def _in_use(name: str, profile: Profile | None) -> bool:
+    """Whether `name`'s set-up in `profile` uses its `_SIM_ONLY` keys (no profile: yes)."""
+    if profile is None:
+        return True
+    from services.bridge.config import BridgeConfig
+    from services.tracker.config import TrackerConfig
+
+    config = profile.service_config(name)
+    if name == "tracker":
+        return config.get("sensor", TrackerConfig().sensor) == "sim"  # the tracker's own default
+    return config.get("backend", BridgeConfig().backend) == "sim"
+
+
+def run_access_control(services: Iterable[str], job: str, profile: Profile | None = None) -> AccessControl:
+    """The router's deny-by-default list for one run of `services` with `job` (each service's
+    keys as `profile` sets it up, when given).
 
     Raises:
         LoginsError: a service whose keys are not known (not in `PUBLISHES`).
@@ -155,7 +174,9 @@ def run_access_control(services: Iterable[str], job: str) -> AccessControl:
                                      f"(services.launcher.logins.PUBLISHES knows {', '.join(sorted(PUBLISHES))}); "
                                      "give the profile fixed logins and an access list ([bus.auth], "
                                      "[bus.access_control]) instead")
-        own = tuple(f"{{prefix}}/{t.suffix}" for t in PUBLISHES[name]) + ROS_PUBLISHES.get(name, ())
+        unused = () if _in_use(name, profile) else _SIM_ONLY.get(name, ())
+        own = (tuple(f"{{prefix}}/{t.suffix}" for t in PUBLISHES[name] if t not in unused)
+               + ROS_PUBLISHES.get(name, ()))
         users[name] = UserPermissions(publish=own, subscribe=everything)
     follows = (T.SUPERVISOR_STATE, T.EPISODE, T.SIM_TRUTH, T.JOINT_STATE)
     # The job stops the arm itself when the supervisor falls silent; the demo drives the arm.
@@ -175,7 +196,7 @@ def start_run_logins(profile: Profile, services: list[str], recording_dir: Path,
 
     if profile.logins != "per-run":
         return None, profile, profile.access_control
-    acl = run_access_control(services, job)  # refuses an unknown service before any file is made
+    acl = run_access_control(services, job, profile)  # refuses an unknown service before any file is made
     logins = create_run_logins(logins_dir(recording_dir, run_id), [*services, LAUNCHER, OBSERVER])
     # The run's own dictionary, whatever HANDOVER_BUS_CREDENTIALS says in the launcher's environment.
     return logins, replace(profile, auth=BusAuth(logins.dictionary, env_override=False)), acl

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from bus_schema.topics import HEARTBEAT
+from bus_schema.topics import HEARTBEAT, sender_name_ok
 from services.runtime.errors import ProfileError
 
 CREDENTIALS_ENV = "HANDOVER_BUS_CREDENTIALS"
@@ -193,6 +193,8 @@ def parse_access_control(table: Any, path: Path) -> AccessControl | None:
         raise ProfileError(f"{path}: [bus.access_control.users.<name>] tables are missing")
     users: dict[str, UserPermissions] = {}
     for name, perms in users_table.items():
+        if not sender_name_ok(name):  # a user's name is one key chunk (its heartbeat and liveliness keys)
+            raise ProfileError(f"{path}: bus.access_control user {name!r} must not hold / * $ ? #")
         if not isinstance(perms, dict) or set(perms) - {"publish", "subscribe", "query"}:
             raise ProfileError(f"{path}: [bus.access_control.users.{name}] may hold publish, subscribe, query")
         users[name] = UserPermissions(

@@ -71,3 +71,21 @@ def test_the_default_profile_runs_with_logins_and_the_router_checks_them(tmp_pat
     child = load_profile_file("sim")
     password = logins.user_file("bridge").read_text().split(":")[1].strip()
     assert child.auth is not None and child.auth.password("bridge") == password
+
+
+
+def test_the_keys_follow_each_services_set_up():
+    """A tracker fed by the bus renders no Kinect; a bridge driving Baxter runs no simulation."""
+    from services.runtime.profile import load_profile_file
+
+    def grants(profile_name, services):
+        acl = run_access_control(services, "handover", load_profile_file(profile_name)).zenoh_dict("handover/v1")
+        return {r["id"]: r["key_exprs"] for r in acl["rules"]}
+
+    sim = grants("sim", ["tracker", "bridge"])
+    assert "handover/v1/perception/skeleton" in sim["tracker_publish"]
+    assert "handover/v1/sim/truth" in sim["bridge_publish"]
+    fake = grants("baxter_fake", ["tracker", "bridge", "fake_baxter"])
+    assert "handover/v1/perception/skeleton" not in fake["tracker_publish"]
+    assert "handover/v1/sim/truth" not in fake["bridge_publish"]
+    assert "handover/v1/sim/truth" in fake["fake_baxter_publish"]

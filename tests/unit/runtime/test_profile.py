@@ -151,3 +151,15 @@ def test_a_profile_in_code_cannot_override_the_access_list_either():
         zenoh_config_dict(profile, "router")
     no_auth = replace(base, access_control=AccessControl(), zenoh_overrides={"access_control": {"enabled": False}})
     assert zenoh_config_dict(no_auth, "router")["access_control"]["enabled"] is True
+
+
+
+def test_an_access_list_user_must_be_one_key_chunk(tmp_path):
+    creds = tmp_path / "creds"
+    creds.write_text("x:y\n")
+    creds.chmod(0o600)
+    path = tmp_path / "p.toml"
+    path.write_text(f'[bus]\nendpoint = "tcp/127.0.0.1:7999"\n[bus.auth]\ncredentials_file = "{creds}"\n'
+                    '[bus.access_control]\n[bus.access_control.users."*"]\npublish = ["a/b"]\n')
+    with pytest.raises(ProfileError, match="must not hold"):  # "*" would own every heartbeat key
+        load_profile_file(path)
