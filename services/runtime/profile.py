@@ -179,7 +179,7 @@ def validate_endpoint(endpoint: str, allow_non_loopback: bool = False) -> None:
     if not allow_non_loopback and host not in _LOOPBACK_HOSTS:
         raise ProfileError(
             f"bus endpoint {endpoint!r} is not on loopback; only a multi-host profile with "
-            "bus.allow_non_loopback = true (and authentication) may use other interfaces"
+            "bus.allow_non_loopback = true (with logins, an access list and TLS) may use other interfaces"
         )
 
 
@@ -279,8 +279,9 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
     auth = parse_auth(bus.get("auth"), path)
     tls = parse_tls(bus.get("tls"), path, endpoint)
     access_control = parse_access_control(bus.get("access_control"), path)
-    if allow and auth is None:
-        raise ProfileError(f"{path}: bus.allow_non_loopback = true needs [bus.auth] (user/password per service)")
+    if allow and (auth is None or access_control is None or tls is None):
+        raise ProfileError(f"{path}: bus.allow_non_loopback = true needs [bus.auth] (user/password per service), "
+                           "[bus.access_control] and [bus.tls] (mutual TLS): a bus other hosts reach is never open")
     _check_overrides(overrides, path)
     for side in ("listen", "connect"):  # the Zenoh overrides obey the loopback rule too, checked at load
         endpoints = overrides.get(side, {}).get("endpoints", [])

@@ -31,6 +31,8 @@ def _profile(tmp: Path, port: int, tls_dir: Path) -> Path:
     path = tmp / "tls.toml"
     path.write_text(f'[bus]\nendpoint = "tls/{HOST}:{port}"\nprefix = "handover/v1"\nallow_non_loopback = true\n'
                     f'[bus.auth]\ncredentials_file = "{creds}"\n'
+                    '[bus.access_control]\n[bus.access_control.users.alice]\npublish = ["{prefix}/test/**"]\n'
+                    '[bus.access_control.users.bob]\nsubscribe = ["{prefix}/test/**"]\n'
                     f'[bus.tls]\nca_file = "{tls_dir}/ca.pem"\ncert_file = "{tls_dir}/{HOST}.pem"\n'
                     f'key_file = "{tls_dir}/{HOST}.key"\n')
     return path

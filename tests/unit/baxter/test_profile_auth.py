@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import pytest
 
+from services.launcher.certs import make_certificates
 from services.runtime.errors import ProfileError
 from services.runtime.profile import load_profile_file
 from services.runtime.zenoh_config import zenoh_config, zenoh_config_dict
@@ -13,6 +14,13 @@ BASE = """
 endpoint = "{endpoint}"
 allow_non_loopback = {allow}
 {extra}
+"""
+
+TLS = """
+[bus.tls]
+ca_file = "tls/ca.pem"
+cert_file = "tls/10.0.0.2.pem"
+key_file = "tls/10.0.0.2.key"
 """
 
 AUTH = """
@@ -27,8 +35,10 @@ subscribe = ["{prefix}/**"]
 """
 
 
-def _profile(tmp_path, endpoint="tcp/10.0.0.2:7447", allow="true", extra=AUTH, creds="supervisor:s\nrecorder:r\n",
-             mode=0o600):
+def _profile(tmp_path, endpoint="tls/10.0.0.2:7447", allow="true", extra=AUTH + TLS,
+             creds="supervisor:s\nrecorder:r\n", mode=0o600):
+    if not (tmp_path / "tls").exists():
+        make_certificates(tmp_path / "tls", ["10.0.0.2"])
     (tmp_path / "creds").write_text(creds)
     (tmp_path / "creds").chmod(mode)
     path = tmp_path / "p.toml"
@@ -37,10 +47,12 @@ def _profile(tmp_path, endpoint="tcp/10.0.0.2:7447", allow="true", extra=AUTH, c
 
 
 def test_non_loopback_needs_auth(tmp_path):
-    with pytest.raises(ProfileError, match="needs \\[bus.auth\\]"):
-        _profile(tmp_path, extra="")
+    for missing in ("", AUTH, TLS):  # logins, access list and TLS: all three, or no other host
+        with pytest.raises(ProfileError, match="needs \\[bus.auth\\].*\\[bus.access_control\\] and \\[bus.tls\\]"):
+            _profile(tmp_path, endpoint="tls/10.0.0.2:7447" if "bus.tls" in missing else "tcp/10.0.0.2:7447",
+                     extra=missing)
     with pytest.raises(ProfileError, match="not on loopback"):
-        _profile(tmp_path, allow="false", extra="")
+        _profile(tmp_path, endpoint="tcp/10.0.0.2:7447", allow="false", extra="")
 
 
 def test_router_gets_dictionary_and_deny_by_default_acl(tmp_path, monkeypatch):
