@@ -20,12 +20,12 @@ from __future__ import annotations
 import argparse
 import datetime
 import ipaddress
-import os
 import re
 import sys
 from pathlib import Path
 
 from services.runtime.errors import ServiceError
+from services.runtime.paths import write_new_file
 
 #: How long the certificates are valid, days.
 VALID_DAYS = 825
@@ -73,13 +73,6 @@ def _subject_alt_name(host: str):
         return x509.DNSName(host)
 
 
-def _write(path: Path, data: bytes, private: bool) -> None:
-    """A new file (never an existing one, nor through a symbolic link), 600 when `private`."""
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600 if private else 0o644)
-    with os.fdopen(fd, "wb") as out:
-        out.write(data)
-
-
 def make_certificates(directory: Path, hosts: list[str]) -> dict[str, Path]:
     """Write the authority and one certificate per host into `directory`; returns the paths
     by name (``ca``, and each host).
@@ -116,8 +109,8 @@ def make_certificates(directory: Path, hosts: list[str]) -> dict[str, Path]:
     try:
         directory.mkdir(parents=True, exist_ok=True)
         paths = {"ca": directory / "ca.pem"}
-        _write(directory / "ca.key", ca_key.private_bytes(pem, *key_format), private=True)
-        _write(paths["ca"], ca.public_bytes(pem), private=False)
+        write_new_file(directory / "ca.key", ca_key.private_bytes(pem, *key_format), private=True)
+        write_new_file(paths["ca"], ca.public_bytes(pem), private=False)
         for host in hosts:
             key = ec.generate_private_key(ec.SECP256R1())
             cert = (x509.CertificateBuilder().subject_name(_name(host)).issuer_name(ca.subject)
@@ -128,9 +121,9 @@ def make_certificates(directory: Path, hosts: list[str]) -> dict[str, Path]:
                     .add_extension(x509.ExtendedKeyUsage([x509.oid.ExtendedKeyUsageOID.SERVER_AUTH,
                                                           x509.oid.ExtendedKeyUsageOID.CLIENT_AUTH]), critical=False)
                     .sign(ca_key, hashes.SHA256()))
-            _write(directory / f"{host}.key", key.private_bytes(pem, *key_format), private=True)
+            write_new_file(directory / f"{host}.key", key.private_bytes(pem, *key_format), private=True)
             paths[host] = directory / f"{host}.pem"
-            _write(paths[host], cert.public_bytes(pem), private=False)
+            write_new_file(paths[host], cert.public_bytes(pem), private=False)
     except OSError as exc:
         raise CertsError(f"cannot write certificates into {directory}: {exc.strerror or exc}") from None
     return paths

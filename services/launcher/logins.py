@@ -26,12 +26,14 @@ import os
 import secrets
 import shutil
 import tempfile
+import time
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from bus_schema import topics as T
 from services.runtime.errors import ServiceError
+from services.runtime.paths import write_new_file
 from services.runtime.bus_access import CREDENTIALS_ENV, AccessControl, BusAuth, UserPermissions
 from services.runtime.profile import Profile
 
@@ -108,12 +110,6 @@ def logins_dir(recording_dir: Path, run_id: str) -> Path:
     return recording_dir / f"handover-{run_id}-bus"
 
 
-def _write_private(path: Path, text: str) -> None:
-    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
-    with os.fdopen(fd, "w") as out:
-        out.write(text)
-
-
 def create_run_logins(directory: Path, users: Iterable[str]) -> RunLogins:
     """Make `directory` (mode 700, must not exist) with a random password for each of `users`.
     The files are written in a private folder beside it, renamed into place once complete: a
@@ -131,8 +127,9 @@ def create_run_logins(directory: Path, users: Iterable[str]) -> RunLogins:
         staging = Path(tempfile.mkdtemp(prefix=f".{directory.name}-", dir=directory.parent))  # mode 700
         passwords = {user: secrets.token_urlsafe(24) for user in sorted(set(users))}
         for user, password in passwords.items():
-            _write_private(staging / user, f"{user}:{password}\n")
-        _write_private(staging / DICTIONARY, "".join(f"{u}:{p}\n" for u, p in passwords.items()))
+            write_new_file(staging / user, f"{user}:{password}\n".encode(), private=True)
+        write_new_file(staging / DICTIONARY, "".join(f"{u}:{p}\n" for u, p in passwords.items()).encode(),
+                       private=True)
         os.rename(staging, directory)
     except OSError as exc:
         if staging is not None:
@@ -192,8 +189,6 @@ def start_run_logins(profile: Profile, services: list[str], recording_dir: Path,
     """For a ``logins = "per-run"`` profile: the run's logins, the profile the launcher's own
     sessions use (authenticated as any user of the dictionary) and the router's ACL. Otherwise
     (None, `profile`, its own ACL)."""
-    from dataclasses import replace
-
     if profile.logins != "per-run":
         return None, profile, profile.access_control
     acl = run_access_control(services, job, profile)  # refuses an unknown service before any file is made
@@ -217,9 +212,6 @@ def login_profile(profile: Profile, recording_dir: Path, run_id: str, user: str 
     Raises:
         LoginsError: the login did not appear within `timeout_s`.
     """
-    import time
-    from dataclasses import replace
-
     if profile.logins != "per-run":
         return profile
     path = logins_dir(recording_dir, run_id) / user

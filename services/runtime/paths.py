@@ -1,7 +1,8 @@
-"""Checks of the paths a command will write, made before anything starts."""
+"""Checks of the paths a command will write, made before anything starts, and new private files."""
 
 from __future__ import annotations
 
+import os
 import tempfile
 from pathlib import Path
 
@@ -16,3 +17,11 @@ def unwritable_dir(directory: Path) -> str | None:
     except OSError as exc:
         return exc.strerror or str(exc)
     return None
+
+
+def write_new_file(path: Path, data: bytes, private: bool) -> None:
+    """Write `data` to a new file (never an existing one, nor through a symbolic link), readable
+    by its owner only when `private` (mode 600, else 644), whatever the umask."""
+    fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600 if private else 0o644)
+    with os.fdopen(fd, "wb") as out:
+        out.write(data)
