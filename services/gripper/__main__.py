@@ -1,7 +1,7 @@
 """`python -m services.gripper`: the gripper service (see `services.gripper.cli`).
 
-The analysis, reproduction and benchmark command lines are their own modules:
-`python -m services.gripper.cli_analysis`, `.reproduce`, `.benchmark`.
+The analysis, reproduction and benchmark are offline studies:
+`handover-study failsafe`, `handover-study reproduce`, `handover-study bench`.
 """
 
 from services.gripper.cli import main

@@ -1,9 +1,9 @@
 """`handover-gripper` (`python -m services.gripper`): the fail-safe gripper service.
 
 Other command lines of this package:
-    python -m services.gripper.cli_analysis   F_ST, F_BT, φ_max, Figures 18–19
-    python -m services.gripper.reproduce      Figures 20–23 and the comparison table
-    python -m services.gripper.benchmark      Monte-Carlo controller benchmark (handover-bench)
+    handover-study failsafe    F_ST, F_BT, φ_max (figures: handover-study figures gripper)
+    handover-study reproduce   Figures 20–23 and the comparison table
+    handover-study bench       Monte-Carlo controller benchmark
 """
 
 from __future__ import annotations

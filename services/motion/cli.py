@@ -99,7 +99,7 @@ def _plan(args: argparse.Namespace) -> int:
         x, y, z = record.tool_m[i]
         print(f"{record.time_s[i]:6.2f} {x:7.3f} {y:7.3f} {z:7.3f} {speed[i]:6.3f} {q}")
     if args.plot:
-        from services.motion.figures import plot_record
+        from services.motion.plot import plot_record
 
         plot_record(record, args.plot, title=f"{args.kind} to {np.round(p_end, 3).tolist()}")
         print(f"plot written to {args.plot}")

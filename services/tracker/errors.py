@@ -16,6 +16,6 @@ class TrackerConfigError(TrackerError):
 
 class ReplayFileError(TrackerError):
     """A replay file cannot be read or written (check its path and that it was recorded by
-    `handover-tracker record`)."""
+    `handover-study record`)."""
 
     bad_input = True

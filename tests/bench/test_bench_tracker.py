@@ -30,7 +30,7 @@ from robot_sim.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from robot_sim.kinect import ArmGeometry, KinectScenario, KinectSim
 from services.tracker.config import TrackerConfig
 from services.tracker.core import TrackerPipeline, skeleton_frame_from_message
-from services.tracker.episodes import run_episode
+from services.studies.tracker.episodes import run_episode
 from services.tracker.pointcloud import depth_frame_from_message
 from tests.bench._report import save, summarize, table
 from tests.unit.tracker.per_frame_reference import HeadPipeline, reference_skeleton_frame_from_message

@@ -11,7 +11,7 @@ from robot_sim.contact.config import GripperParams, SimConfig
 from robot_sim.contact.episode import run_episode, run_vectorised
 from robot_sim.contact.outcome import BatchOutcome
 from robot_sim.contact.receiver import behaviour_by_name
-from services.gripper.attribution import (
+from services.studies.gripper.attribution import (
     AttributedOutcome,
     DropClass,
     MaxHoldReference,
@@ -22,7 +22,7 @@ from services.gripper.attribution import (
     run_attributed,
 )
 from services.gripper.controllers import make_controller
-from services.gripper.episodes import EpisodeDistribution, sample_chunk
+from services.studies.gripper.episodes import EpisodeDistribution, sample_chunk
 from tests.unit.gripper.helpers import sample
 
 

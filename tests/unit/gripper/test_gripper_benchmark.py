@@ -13,10 +13,10 @@ from robot_sim.contact.config import ObjectParams, SensorParams, SimConfig
 from robot_sim.contact.controllers import ConstantGrip
 from robot_sim.contact.episode import run_vectorised
 from robot_sim.contact.receiver import stack_receivers, taking
-from services.gripper import benchmark as B
-from services.gripper.cli_bench import main as bench_main
-from services.gripper.episodes import EpisodeDistribution, EpisodeObjectParams, sample_chunk
 from services.gripper.errors import GripperError
+from services.studies.cli import main as study_main
+from services.studies.gripper import benchmark as B
+from services.studies.gripper.episodes import EpisodeDistribution, EpisodeObjectParams, sample_chunk
 
 
 def test_wilson_interval_matches_the_closed_form():
@@ -82,28 +82,28 @@ def test_same_episodes_for_every_controller_and_repeatable():
 
 
 def test_cli_writes_table_and_csv_and_rejects_bad_input(tmp_path, capsys):
-    assert bench_main(["--controllers", "HI", "-n", "4", "--chunk-size", "4", "--workers", "1", "--no-plots",
+    assert study_main(["bench", "--controllers", "HI", "-n", "4", "--chunk-size", "4", "--workers", "1", "--no-plots",
                    "--no-progress", "--out", str(tmp_path)]) == 0
     assert (tmp_path / "table.md").read_text().count("| HI |") == 1
     assert (tmp_path / "results.csv").read_text().startswith("controller,episodes,drops")
-    assert bench_main(["--controllers", "FS9", "-n", "4", "--no-progress", "--out", str(tmp_path)]) == 2
+    assert study_main(["bench", "--controllers", "FS9", "-n", "4", "--no-progress", "--out", str(tmp_path)]) == 2
     assert "unknown controller" in capsys.readouterr().err
 
 
 def test_cli_set_overrides_one_controller_and_refuses_bad_ones(tmp_path, capsys):
     common = ["-n", "4", "--chunk-size", "4", "--workers", "1", "--no-plots", "--no-progress", "--seed", "5"]
-    assert bench_main(["--controllers", "SG", *common, "--out", str(tmp_path / "v3")]) == 0
-    assert bench_main(["--controllers", "SG", *common, "--out", str(tmp_path / "as_v2"),
+    assert study_main(["bench", "--controllers", "SG", *common, "--out", str(tmp_path / "v3")]) == 0
+    assert study_main(["bench", "--controllers", "SG", *common, "--out", str(tmp_path / "as_v2"),
                        "--set", "SG:hold_per_weight=4", "--set", "SG:share_cap=3",
                        "--set", "SG:max_hold_force_n=inf"]) == 0
-    assert bench_main(["--controllers", "SG-v2", *common, "--out", str(tmp_path / "v2")]) == 0
+    assert study_main(["bench", "--controllers", "SG-v2", *common, "--out", str(tmp_path / "v2")]) == 0
     row = lambda d: (tmp_path / d / "results.csv").read_text().splitlines()[1].split(",", 1)[1]  # noqa: E731
     assert row("as_v2") == row("v2")  # SG with v2's three parameters is SG-v2, episode for episode
     assert row("v3") != row("v2")  # and the overrides did change something (seed 5: v2 holds the dropping receiver)
     capsys.readouterr()
-    assert bench_main(["--controllers", "SG", *common, "--out", str(tmp_path), "--set", "SG:colour=1"]) == 2
+    assert study_main(["bench", "--controllers", "SG", *common, "--out", str(tmp_path), "--set", "SG:colour=1"]) == 2
     assert "unknown parameter" in capsys.readouterr().err
-    assert bench_main(["--controllers", "SG", *common, "--out", str(tmp_path), "--set", "HI:eps=1"]) == 2
+    assert study_main(["bench", "--controllers", "SG", *common, "--out", str(tmp_path), "--set", "HI:eps=1"]) == 2
     assert "not in --controllers" in capsys.readouterr().err
     with pytest.raises(SystemExit):
-        bench_main(["--controllers", "SG", *common, "--set", "SG:share_cap"])
+        study_main(["bench", "--controllers", "SG", *common, "--set", "SG:share_cap"])

@@ -6,29 +6,29 @@ import math
 
 import pytest
 
-from services.gripper import analysis as A
-from services.gripper import cli_reproduce, reproduce
-from services.gripper.cli_analysis import main
 from services.gripper.controllers import FS_PRESETS
+from services.studies.cli import main
+from services.studies.gripper import analysis as A
+from services.studies.gripper import reproduce
 
 
 def test_fst_cli_prints_the_library_value(capsys):
-    assert main(["fst", "--phi-deg", "20", "--preset", "FS1"]) == 0
+    assert main(["failsafe", "fst", "--phi-deg", "20", "--preset", "FS1"]) == 0
     out = capsys.readouterr().out
     expected = A.start_force_threshold_n(math.radians(20), FS_PRESETS["FS1"])
     assert f"F_ST = {expected:8.4f} N" in out
 
 
 def test_conditions_cli(capsys):
-    assert main(["conditions", "--preset", "FS-sim-g5", "--max-pull-n"]) == 0
+    assert main(["failsafe", "conditions", "--preset", "FS-sim-g5", "--max-pull-n"]) == 0
     out = capsys.readouterr().out
     assert "F_margin/β = 4.0000 m/s²" in out and "holds" in out
 
 
 def test_bad_input_one_line_error(capsys):
-    assert main(["fst", "--mass-kg", "-1"]) == 1
+    assert main(["failsafe", "fst", "--mass-kg", "-1"]) == 1
     err = capsys.readouterr().err
-    assert err.startswith("error:") and err.count("\n") == 1
+    assert err.startswith("handover-study failsafe: error:") and err.count("\n") == 1
 
 
 def test_reproduction_writes_recordings_and_table(tmp_path):
@@ -45,6 +45,6 @@ def test_reproduction_writes_recordings_and_table(tmp_path):
 
 @pytest.mark.long
 def test_reproduction_pngs(tmp_path):
-    assert cli_reproduce.main(["--preset", "FS-sim-g5", "--img-dir", str(tmp_path), "--no-rrd",
-                               "--table", str(tmp_path / "t.md")]) == 0
+    assert main(["reproduce", "--preset", "FS-sim-g5", "--img-dir", str(tmp_path), "--no-rrd",
+                "--table", str(tmp_path / "t.md")]) == 0
     assert (tmp_path / "gripper_fig20_g5.png").stat().st_size > 10_000

@@ -1,12 +1,13 @@
 import json
+from dataclasses import replace
 
 import pytest
 
 from services.planner.anthropometrics import FIGURE3_ACTOR, ROBOT_AS_HUMAN
 from services.planner.cli import main
 from services.planner.core import DyadGeometry, plan_transfer
-from services.planner.experiment import four_positions, heavy_light_positions
-from dataclasses import replace
+from services.studies.cli import main as study_main
+from services.studies.planner.experiment import four_positions, heavy_light_positions
 
 
 def test_four_positions_follow_section_2_5_1():
@@ -61,7 +62,7 @@ def test_cli_bad_input_is_one_line_and_exit_2(argv, words, capsys):
 
 
 def test_cli_experiment_lists_p1_to_p4(capsys):
-    assert main(["experiment", "--receiver", "figure3", "--receiver-posture", "sitting"]) == 0
+    assert study_main(["experiment", "--receiver", "figure3", "--receiver-posture", "sitting"]) == 0
     out = capsys.readouterr().out
     assert "task 2 (receiver sitting)" in out
     for name in ("P1", "P2", "P3", "P4"):

@@ -1,4 +1,4 @@
-"""`python -m services.planner.figures`: writes the three planner figures and names the optimum."""
+"""`handover-study figures planner`: writes the three planner figures and names the optimum."""
 
 from __future__ import annotations
 
@@ -6,11 +6,11 @@ import re
 
 import matplotlib.image as mpimg
 
-from services.planner.cli_figures import main
+from services.studies.cli import main
 
 
 def test_figures_cli_writes_three_pngs_and_prints_the_figure3_optimum(tmp_path, capsys):
-    assert main(["--out", str(tmp_path / "figs")]) == 0
+    assert main(["figures", "planner", "--out", str(tmp_path / "figs")]) == 0
     for name in ("figure3", "findings", "robot"):
         img = mpimg.imread(tmp_path / "figs" / f"planner_{name}.png")
         assert img.shape[0] > 200 and img.shape[1] > 200 and img.std() > 0.01  # not a blank canvas

@@ -16,7 +16,14 @@ COMMANDS = [
     ("services.motion.cli", ["plan", "--help"]),
     ("services.tracker.cli", ["--help"]),
     ("services.gripper.cli", ["--help"]),
-    ("services.gripper.cli_bench", ["--help"]),
+    ("services.studies.cli", ["--help"]),
+    ("services.studies.cli", ["bench", "--help"]),
+    ("services.studies.cli", ["reproduce", "--help"]),
+    ("services.studies.cli", ["failsafe", "--help"]),
+    ("services.studies.cli", ["figures", "--help"]),
+    ("services.studies.cli", ["experiment", "--help"]),
+    ("services.studies.cli", ["record", "--help"]),
+    ("services.studies.cli", ["evaluate", "--help"]),
     ("services.sim_kinect.cli", ["--help"]),
     ("services.supervisor.cli", ["--help"]),
     ("services.bridge.baxter.cli", ["--help"]),
@@ -38,7 +45,8 @@ def test_help_states_each_default_once(module, argv, capsys):
     assert twice == [], f"defaults said twice: {twice}"
 
 
-SUBCOMMAND_CLIS = ["services.motion.cli", "services.planner.cli", "services.recorder.cli", "services.tracker.cli"]
+SUBCOMMAND_CLIS = ["services.motion.cli", "services.planner.cli", "services.recorder.cli", "services.tracker.cli",
+                   "services.studies.cli"]
 
 
 @pytest.mark.parametrize("module", SUBCOMMAND_CLIS)

@@ -155,7 +155,7 @@ def test_object_detection_equals_the_whole_cloud_detection(frames, arm):
 def test_pipeline_outputs_equal_the_whole_cloud_pipeline_over_episodes(arm):
     """The whole pipeline (lag correction on every frame, proximity filter, object detection
     on every 3rd depth frame) on random reaching episodes, frame by frame."""
-    from services.tracker.episodes import run_episode
+    from services.studies.tracker.episodes import run_episode
 
     cfg = TrackerConfig(lag_min_speed_m_s=0.0)
     acted = 0

@@ -16,7 +16,7 @@ from robot_sim.kinect import ArmGeometry, KinectScenario, KinectSim
 from services.tracker.body import REQUIRED_JOINTS, BodyDimensionEstimator
 from services.tracker.config import TrackerConfig
 from services.tracker.core import TrackerPipeline, skeleton_frame_from_message
-from services.tracker.episodes import run_episode
+from services.studies.tracker.episodes import run_episode
 from services.tracker.node import human_fields, object_fields
 from services.tracker.pointcloud import depth_frame_from_message
 from tests.unit.tracker.per_frame_reference import (

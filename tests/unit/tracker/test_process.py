@@ -49,11 +49,12 @@ def test_labels_are_the_same_with_one_opencv_thread():
 def test_a_sim_kinect_value_that_is_not_a_table_is_a_one_line_config_error():
     import pytest
 
-    from services.tracker.cli import _config, build_parser
+    from services.tracker.cli import build_parser
+    from services.tracker.config_args import config_from_args
     from services.tracker.errors import TrackerConfigError
 
     args = build_parser().parse_args(["--sensor", "sim", "--posture", "sitting"])
-    assert _config(args, {"sim_kinect": {"seed": 4}}).sim_kinect.posture == "sitting"
+    assert config_from_args(args, {"sim_kinect": {"seed": 4}}).sim_kinect.posture == "sitting"
     for bad in ("x", 3):
         with pytest.raises(TrackerConfigError, match="sim_kinect must be a table"):
-            _config(args, {"sim_kinect": bad})
+            config_from_args(args, {"sim_kinect": bad})

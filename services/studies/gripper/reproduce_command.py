@@ -1,5 +1,8 @@
-"""Command line of the thesis reproduction (Figures 20–23 in the thesis model mode):
-``python -m services.gripper.reproduce [--preset P] [--img-dir D] [--rrd-dir D] [--table F]``."""
+"""`handover-study reproduce`: the thesis's Figures 20–23 in the thesis model mode and the table
+that compares them with the thesis's statements.
+
+    handover-study reproduce [--preset P] [--img-dir D] [--rrd-dir D] [--table F]
+"""
 
 from __future__ import annotations
 
@@ -9,15 +12,13 @@ import sys
 from pathlib import Path
 
 from services.gripper.errors import GripperError
-from services.gripper.reproduce import PRESET_TAGS, claims_table, reproduce
-from services.runtime.cli import one_line_parser
+from services.studies.gripper.reproduce import PRESET_TAGS, claims_table, reproduce
+
+DESCRIPTION = "Reproduce thesis Figures 20-23 (thesis model mode) and compare them with the thesis's statements."
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = one_line_parser(
-        prog="python -m services.gripper.reproduce",
-        description="Reproduce thesis Figures 20-23 (thesis model mode) and compare with the thesis's statements.",
-    )
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The reproduction's flags."""
     parser.add_argument("--preset", action="append", choices=sorted(PRESET_TAGS),
                         help="fail-safe parameter set (repeatable; default: FS-sim-g5 and FS-sim-g1)")
     parser.add_argument("--img-dir", type=Path, default=Path("docs/img"), help="where PNGs go (default docs/img)")
@@ -25,11 +26,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--table", type=Path, default=Path("out/reproduction/table.md"), help="Markdown table output")
     parser.add_argument("--no-images", action="store_true", help="skip PNGs")
     parser.add_argument("--no-rrd", action="store_true", help="skip Rerun recordings")
-    return parser
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def run(args: argparse.Namespace) -> int:
+    """Run the reproduction, print the table and the files written; exit 1 on a failure."""
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     presets = args.preset or ["FS-sim-g5", "FS-sim-g1"]
     try:

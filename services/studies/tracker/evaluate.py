@@ -1,6 +1,6 @@
 """Evaluation: hand-position error against simulator truth, with and without corrections.
 
-Runs seeded episodes (`services.tracker.episodes`) and feeds the same frames to one
+Runs seeded episodes (`services.studies.tracker.episodes`) and feeds the same frames to one
 pipeline per variant: no correction, lag correction only (with and without removing the
 robot's points), proximity filter only, and both. Errors are |hand − true hand| at each
 skeleton frame (the truth at the frame's time), split by phase:
@@ -17,16 +17,15 @@ from __future__ import annotations
 import json
 import logging
 from dataclasses import dataclass
-
-import msgspec
 from pathlib import Path
 
+import msgspec
 import numpy as np
 
 from robot_sim.kinect import ArmGeometry
+from services.studies.tracker.episodes import run_episode
 from services.tracker.config import TrackerConfig
 from services.tracker.core import TrackerPipeline, skeleton_frame_from_message
-from services.tracker.episodes import run_episode
 from services.tracker.pointcloud import depth_frame_from_message
 
 log = logging.getLogger(__name__)

@@ -4,7 +4,7 @@ An episode: Baxter's right arm moves (minimum-jerk in joint space) from its home
 a transfer point above the table, holding the object between its fingers; the receiver
 (random height and posture) reaches for the object with a minimum-jerk hand motion and ends
 with its hand on the object, 7 cm from the robot's tool frame. Used by the evaluation and
-by `handover-tracker record`. Frames: Baxter's `base` frame, metres, seconds.
+by `handover-study record`. Frames: Baxter's `base` frame, metres, seconds.
 """
 
 from __future__ import annotations

@@ -10,14 +10,13 @@ comparison. Outputs:
 - a Markdown table comparing what the thesis states with what we compute.
 
 Usage:
-    python -m services.gripper.reproduce --img-dir docs/img --rrd-dir out/reproduction
+    handover-study reproduce --img-dir docs/img --rrd-dir out/reproduction
 """
 
 from __future__ import annotations
 
 import logging
 import math
-import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -25,9 +24,9 @@ import numpy as np
 
 from robot_sim.contact.interfaces import Mode
 from robot_sim.thesis_model import ThesisRun, ThesisScenario, simulate
-from services.gripper import analysis
 from services.gripper.controllers import FS_PRESETS, make_controller
 from services.gripper.errors import GripperError
+from services.studies.gripper import analysis
 
 log = logging.getLogger(__name__)
 
@@ -443,8 +442,3 @@ def reproduce(presets: list[str], img_dir: Path | None, rrd_dir: Path | None) ->
         claims.extend(simulation_claims(results, preset))
     return claims, written
 
-
-if __name__ == "__main__":  # `python -m services.gripper.reproduce` (the CLI is services.gripper.cli_reproduce)
-    from services.gripper.cli_reproduce import main
-
-    sys.exit(main())

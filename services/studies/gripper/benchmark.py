@@ -2,7 +2,7 @@
 
 Every controller runs the SAME episodes (common random numbers: chunk i of seed s is drawn
 from `SeedSequence(s).spawn(...)[i]` whatever the controller), sampled by
-`services.gripper.episodes` over pull angle, friction, mass, receiver behaviour and timing,
+`services.studies.gripper.episodes` over pull angle, friction, mass, receiver behaviour and timing,
 and sensor noise. Each episode is judged from ground truth by `robot_sim.contact.outcome`.
 
 Per controller:
@@ -17,9 +17,9 @@ Per controller:
 - the drop rate per receiver behaviour.
 
 Usage:
-    python -m services.gripper.benchmark                      # CI-sized: 200 episodes each
-    python -m services.gripper.benchmark -n 10000 --workers 2 --out out/gripper_bench
-    python -m services.gripper.benchmark --controllers FS1 HI SG -n 2000 --seed 7
+    handover-study bench                      # CI-sized: 200 episodes each
+    handover-study bench -n 10000 --workers 2 --out out/gripper_bench
+    handover-study bench --controllers FS1 HI SG -n 2000 --seed 7
 """
 
 from __future__ import annotations
@@ -38,7 +38,9 @@ from scipy import stats
 from tqdm import tqdm
 
 from robot_sim.contact.outcome import BatchOutcome
-from services.gripper.attribution import (
+from services.gripper.controllers import CONTROLLER_NAMES, make_controller
+from services.gripper.errors import GripperError
+from services.studies.gripper.attribution import (
     DropClass,
     MaxHoldReference,
     ReactiveMaxHold,
@@ -46,16 +48,14 @@ from services.gripper.attribution import (
     paired_overshoot,
     run_attributed,
 )
-from services.gripper.controllers import CONTROLLER_NAMES, make_controller
-from services.gripper.episodes import BEHAVIOUR_NAMES, EpisodeDistribution, sample_chunk
-from services.gripper.errors import GripperError
+from services.studies.gripper.episodes import BEHAVIOUR_NAMES, EpisodeDistribution, sample_chunk
 
 log = logging.getLogger(__name__)
 
-__all__ = ["BenchResult", "ControllerStats", "DEFAULT_CONTROLLERS", "run_benchmark", "summarise", "main"]
+__all__ = ["BenchResult", "ControllerStats", "DEFAULT_CONTROLLERS", "run_benchmark", "summarise"]
 
 DEFAULT_CONTROLLERS = ("FS1", "FS2", "FS3", "HI", "force-threshold", "displacement", "SG")
-#: Bounds run next to the controllers with `attribute=True` (see services.gripper.attribution).
+#: Bounds run next to the controllers with `attribute=True` (see services.studies.gripper.attribution).
 REFERENCES = {"max-hold": MaxHoldReference, "reactive-max-hold": ReactiveMaxHold}
 #: Seed of the episodes the new controller was tuned on; evaluation seeds must differ.
 TUNING_SEED = 1000
@@ -96,7 +96,7 @@ def run_benchmark(controllers: list[str], n_episodes: int, seed: int = 1, worker
                   overrides: dict[str, dict] | None = None, attribute: bool = False) -> BenchResult:
     """Run `n_episodes` episodes per controller (the same episodes for all).
 
-    With `attribute`, the two references of `services.gripper.attribution` run on the same
+    With `attribute`, the two references of `services.studies.gripper.attribution` run on the same
     episodes too (`max-hold`, `reactive-max-hold`), so each drop can be attributed."""
     if n_episodes < 1:
         raise GripperError(f"need at least one episode per controller, got {n_episodes}")
@@ -233,7 +233,7 @@ def drop_attribution(result: BenchResult) -> list[dict]:
     Needs a run with `attribute=True`."""
     if not all(r in result.outcomes for r in REFERENCES):
         raise GripperError("drop attribution needs a benchmark run with attribute=True")
-    from services.gripper.attribution import AttributedOutcome
+    from services.studies.gripper.attribution import AttributedOutcome
 
     ref = result.outcomes["max-hold"].dropped
     react = result.outcomes["reactive-max-hold"].dropped & (result.behaviour != 0)
@@ -275,7 +275,7 @@ def attribution_table(rows: list[dict]) -> str:
 
 def paired_overshoot_rows(result: BenchResult, against: str = "SG") -> list[dict]:
     """Force overshoot of `against` and every other controller on the taking episodes both
-    handed over (`services.gripper.attribution.paired_overshoot`)."""
+    handed over (`services.studies.gripper.attribution.paired_overshoot`)."""
     take = result.behaviour == 0
     rows = []
     for name, out in result.outcomes.items():
@@ -400,8 +400,3 @@ def write_plots(result: BenchResult, rows: list[ControllerStats], out_dir: Path,
     paths.append(p)
     return paths
 
-
-if __name__ == "__main__":  # `python -m services.gripper.benchmark` (the handover-bench CLI)
-    from services.gripper.cli_bench import main
-
-    raise SystemExit(main())

@@ -20,8 +20,6 @@ from services.planner.core import TransferPlan
 from services.planner.djt import DJTSettings, Dyad, djt_cost
 from services.planner.frames import TaskPlaneFrame
 
-EMPTY_CUP_KG = 0.065
-FULL_CUP_KG = 0.335
 OFFSET_M = 0.15
 
 

@@ -1,6 +1,6 @@
 """Figures of the motion service (matplotlib, Agg backend).
 
-`python -m services.motion.figures [OUT_DIR]` writes the docs/motion.md figures
+`handover-study figures motion [--out DIR]` writes the docs/motion.md figures
 (`docs/img/motion_*.png` by default) from real planned motions.
 """
 
@@ -15,25 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from robot_sim import baxter  # noqa: E402
-
-
-def plot_record(record, path: str | Path, title: str = "") -> None:
-    """Joint positions and tool speed of a `PreviewRecord` to a PNG."""
-    fig, (ax_q, ax_v) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    for j, name in enumerate(baxter.RIGHT_ARM_JOINTS):
-        ax_q.plot(record.time_s, record.q_rad[:, j], label=name)
-    ax_q.set_ylabel("joint position (rad)")
-    ax_q.legend(ncol=4, fontsize=8)
-    ax_q.grid(alpha=0.3)
-    ax_v.plot(record.time_s, record.tool_speed_m_s, color="k")
-    ax_v.set_ylabel("tool speed (m/s)")
-    ax_v.set_xlabel("time (s)")
-    ax_v.grid(alpha=0.3)
-    if title:
-        fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+from services.motion.plot import plot_record  # noqa: E402
 
 
 def make_docs_figures(out_dir: Path) -> list[Path]:
@@ -104,8 +86,3 @@ def make_docs_figures(out_dir: Path) -> list[Path]:
     written.append(path)
     return written
 
-
-if __name__ == "__main__":  # `python -m services.motion.figures [OUT_DIR]`
-    from services.motion.cli_figures import main
-
-    raise SystemExit(main())

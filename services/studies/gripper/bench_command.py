@@ -1,9 +1,9 @@
-"""`handover-bench`: the command line of the gripper controller benchmark
-(`services.gripper.benchmark` holds the library: episodes, statistics, tables, plots).
+"""`handover-study bench`: the Monte-Carlo benchmark of the gripper's release controllers
+(`services.studies.gripper.benchmark` holds the library: episodes, statistics, tables, plots).
 
-    handover-bench                                           # CI-sized: 200 episodes each
-    handover-bench -n 5000 --seed 1 --controllers FS1 HI SG --attribute --out out/gripper_bench_v2
-    handover-bench -n 10000 --seed 1000 --controllers HI SG --set SG:max_hold_force_n=18 --attribute   # a tuning run
+    handover-study bench                                     # CI-sized: 200 episodes each
+    handover-study bench -n 5000 --seed 1 --controllers FS1 HI SG --attribute --out out/gripper_bench_v2
+    handover-study bench -n 10000 --seed 1000 --controllers HI SG --set SG:max_hold_force_n=18 --attribute
 """
 
 from __future__ import annotations
@@ -14,7 +14,9 @@ import logging
 import sys
 from pathlib import Path
 
-from services.gripper.benchmark import (
+from services.gripper.controllers import CONTROLLER_NAMES, make_controller
+from services.gripper.errors import GripperError
+from services.studies.gripper.benchmark import (
     DEFAULT_CONTROLLERS,
     REFERENCES,
     TUNING_SEED,
@@ -28,11 +30,6 @@ from services.gripper.benchmark import (
     write_csv,
     write_plots,
 )
-from services.gripper.controllers import CONTROLLER_NAMES, make_controller
-from services.gripper.errors import GripperError
-from services.runtime.cli import HelpFormatter, one_line_parser
-
-
 
 
 def _positive_int(text: str) -> int:
@@ -58,11 +55,11 @@ def _override(text: str) -> tuple[str, str, float | bool]:
         raise argparse.ArgumentTypeError(f"{text!r}: VALUE must be a number, true or false") from None
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = one_line_parser(
-        prog="handover-bench",
-        description="Monte-Carlo benchmark of the gripper release controllers on the realistic contact plant.",
-        formatter_class=HelpFormatter)
+DESCRIPTION = "Monte-Carlo benchmark of the gripper's release controllers on the realistic contact plant."
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    """The benchmark's flags."""
     p.add_argument("--controllers", nargs="+", default=list(DEFAULT_CONTROLLERS), metavar="NAME",
                    help=f"controllers to compare (known: {', '.join(CONTROLLER_NAMES)})")
     p.add_argument("-n", "--episodes", type=_positive_int, default=200, help="episodes per controller")
@@ -82,12 +79,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--log-level", default="warning", choices=["debug", "info", "warning", "error"])
-    return p
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point of `handover-bench`; returns the exit code (2 on bad input)."""
-    args = build_parser().parse_args(argv)
+def run(args: argparse.Namespace) -> int:
+    """Run the benchmark and write its tables and plots; returns the exit code (2 on bad input)."""
     logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
     overrides: dict[str, dict] = {}
     for name, key, value in args.overrides:
@@ -102,10 +97,10 @@ def main(argv: list[str] | None = None) -> int:
                                chunk_size=args.chunk_size, progress=not args.no_progress, attribute=args.attribute,
                                overrides=overrides)
     except GripperError as exc:
-        print(f"handover-bench: error: {exc}", file=sys.stderr)
+        print(f"handover-study bench: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print("handover-bench: interrupted", file=sys.stderr)
+        print("handover-study bench: interrupted", file=sys.stderr)
         return 130
     rows = summarise(result)
     table = markdown_table(rows)
@@ -123,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.attribute:
         att = drop_attribution(result)
         att_table = attribution_table(att)
-        print("\nWho dropped it (% of all episodes; see services/gripper/attribution.py)\n")
+        print("\nWho dropped it (% of all episodes; see services/studies/gripper/attribution.py)\n")
         print(att_table)
         (args.out / "attribution.md").write_text(att_table + "\n")
         if "SG" in result.outcomes:

@@ -1,10 +1,10 @@
 """Command line for the fail-safe analysis (thesis §3.4.3–3.4.4) and its figures.
 
 Examples:
-    python -m services.gripper.cli_analysis fst --phi-deg 20 --preset FS1
-    python -m services.gripper.cli_analysis fbt --phi-deg 0 --preset FS-sim-g1 --no-integrator
-    python -m services.gripper.cli_analysis conditions --preset FS-sim-g5
-    python -m services.gripper.cli_analysis figures --out docs/img
+    handover-study failsafe fst --phi-deg 20 --preset FS1
+    handover-study failsafe fbt --phi-deg 0 --preset FS-sim-g1 --no-integrator
+    handover-study failsafe conditions --preset FS-sim-g5
+    handover-study figures gripper --out docs/img          # Figures 18-19 (make_figures)
 """
 
 from __future__ import annotations
@@ -17,10 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from services.gripper import analysis
 from services.gripper.controllers import FS_PRESETS, FailSafeParams
 from services.gripper.errors import GripperError
-from services.runtime.cli import one_line_parser
+from services.studies.gripper import analysis
 
 
 def _add_params(p: argparse.ArgumentParser) -> None:
@@ -146,57 +145,33 @@ def make_figures(out_dir: Path, plant: analysis.ThesisPlant = analysis.TABLE_IV_
     return written
 
 
-def cmd_figures(args) -> int:
-    for path in make_figures(args.out):
-        print(f"wrote {path}")
-    return 0
+DESCRIPTION = ("Fail-safe law analysis (thesis §3.4.3-3.4.4): F_ST, F_BT, rest condition, tolerated "
+               "acceleration, φ_max.")
 
 
-def cmd_reproduce(args) -> int:
-    from services.gripper import cli_reproduce
-
-    return cli_reproduce.main(args.rest)
-
-
-def build_parser() -> argparse.ArgumentParser:
-    parser = one_line_parser(
-        prog="python -m services.gripper.cli_analysis",
-        description="Fail-safe gripper analysis: F_ST, F_BT, rest condition, tolerated acceleration, φ_max; "
-                    "Figures 18-19.",
-    )
-    sub = parser.add_subparsers(dest="command", required=True)
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The analysis's sub-commands (fst, fbt, conditions) and their flags."""
+    sub = parser.add_subparsers(dest="analysis", required=True, metavar="{fst,fbt,conditions}")
     p = sub.add_parser("fst", help="start force threshold F_ST(φ), eq 3.12 with the square restored")
     p.add_argument("--phi-deg", type=float, nargs="+", default=[0.0], help="pull angle(s), degrees (> 0 pulls down)")
     _add_params(p)
-    p.set_defaults(func=cmd_fst)
+    p.set_defaults(analysis_func=cmd_fst)
     p = sub.add_parser("fbt", help="stable force threshold F_BT(φ), |a| = 1 on eq 3.20 (or 3.16)")
     p.add_argument("--phi-deg", type=float, nargs="+", default=[0.0], help="pull angle(s), degrees")
     p.add_argument("--no-integrator", action="store_true", help="use eq 3.16 (no integrator)")
     _add_params(p)
-    p.set_defaults(func=cmd_fbt)
+    p.set_defaults(analysis_func=cmd_fbt)
     p = sub.add_parser("conditions", help="rest condition (3.9), tolerated acceleration (3.11), φ_max")
     p.add_argument("--max-pull-n", type=float, nargs="*", default=[5.0, 10.0],
                    help="pull caps for a practical φ_max, N")
     _add_params(p)
-    p.set_defaults(func=cmd_conditions)
-    p = sub.add_parser("figures", help="write Figures 18 and 19 as PNG")
-    p.add_argument("--out", type=Path, default=Path("docs/img"), help="output folder (default docs/img)")
-    p.set_defaults(func=cmd_figures)
-    p = sub.add_parser("reproduce",
-                       help="Figures 20-23 and the comparison table (see services.gripper.reproduce --help)")
-    p.add_argument("rest", nargs=argparse.REMAINDER, help="arguments for the reproduction")
-    p.set_defaults(func=cmd_reproduce)
-    return parser
+    p.set_defaults(analysis_func=cmd_conditions)
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+def run(args: argparse.Namespace) -> int:
+    """Run the chosen analysis; exit 1 on a failure."""
     try:
-        return args.func(args)
+        return args.analysis_func(args)
     except (GripperError, OSError, ValueError) as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        print(f"handover-study failsafe: error: {exc}", file=sys.stderr)
         return 1
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Offline studies of the gripper (see `services.studies`)."""

@@ -1,0 +1,1 @@
+"""Offline studies of the motion (see `services.studies`)."""

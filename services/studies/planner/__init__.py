@@ -1,0 +1,1 @@
+"""Offline studies of the planner (see `services.studies`)."""

@@ -1,0 +1,1 @@
+"""Offline studies of the tracker (see `services.studies`)."""

@@ -1,0 +1,85 @@
+"""`handover-study record` and `handover-study evaluate`: the tracker's offline studies.
+
+    handover-study record --out FILE [--seed N]        one simulated episode to a replay file
+    handover-study evaluate [--episodes N] [--figure F] hand error vs the simulator's truth
+
+A replay file feeds `handover-tracker offline FILE` and `handover-tracker --replay FILE`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from services.tracker.config_args import add_config_flags, config_from_args, profile_config
+
+RECORD_DESCRIPTION = "Simulate one seeded tracker episode (Kinect, joints, truth) and write a replay file."
+EVALUATE_DESCRIPTION = ("Hand-position error of the tracker against the simulator's truth, per Mincelli "
+                        "correction and handover phase, over seeded episodes.")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} must be >= 1")
+    return value
+
+
+def add_record_arguments(p: argparse.ArgumentParser) -> None:
+    """Flags of `record`."""
+    p.add_argument("--out", type=Path, required=True, help="replay file to write")
+    p.add_argument("--seed", type=int, default=0, help="episode seed")
+
+
+def run_record(args: argparse.Namespace) -> int:
+    """Simulate one episode and write every frame's joints, depth, skeleton and truth."""
+    from bus_schema import topics as T
+    from services.studies.tracker.episodes import run_episode
+    from services.tracker.replay import ReplayWriter
+
+    if args.out.parent and not args.out.parent.is_dir():
+        print(f"handover-study record: error: folder {args.out.parent} does not exist", file=sys.stderr)
+        return 2
+    frames = 0
+    with ReplayWriter(args.out) as writer:
+        for frame in run_episode(args.seed):
+            writer.write(frame.t_s, T.JOINT_STATE, frame.joint_state)
+            writer.write(frame.t_s, T.DEPTH, frame.depth)
+            writer.write(frame.t_s, T.SKELETON, frame.skeleton)
+            writer.write(frame.t_s, T.SIM_TRUTH, frame.truth)
+            frames += 1
+    size_mb = args.out.stat().st_size / 1e6
+    print(f"recorded episode seed {args.seed}: {frames} frames, {writer.records} messages, "
+          f"{size_mb:.1f} MB -> {args.out}")
+    return 0
+
+
+def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
+    """Flags of `evaluate`: the episodes, the outputs, the profile and the tracker's own flags."""
+    p.add_argument("--episodes", type=_positive_int, default=20, help="number of seeded episodes")
+    p.add_argument("--seed", type=int, default=0, help="first seed")
+    p.add_argument("--json", type=Path, default=Path("out/tracker/evaluation.json"), help="results file")
+    p.add_argument("--figure", type=Path, default=None,
+                   help="write the raw-vs-corrected figure of the first episode here")
+    p.add_argument("--profile", default="sim",
+                   help="profile whose [services.tracker.config] is the starting point (default: sim)")
+    add_config_flags(p)
+
+
+def run_evaluate(args: argparse.Namespace) -> int:
+    """Run the evaluation, print its table and write the results (and the figure)."""
+    from services.studies.tracker.evaluate import markdown_table, plot_trace, run_evaluation, write_results
+
+    config = config_from_args(args, profile_config(args))
+    summary, trace = run_evaluation(args.episodes, args.seed, config, progress=sys.stderr.isatty())
+    print(markdown_table(summary))
+    write_results(summary, args.json, args.episodes, args.seed)
+    print(f"\nresults: {args.json}")
+    if args.figure is not None and trace is not None:
+        plot_trace(trace, args.figure)
+        print(f"figure: {args.figure}")
+    return 0
