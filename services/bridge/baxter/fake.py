@@ -58,6 +58,13 @@ from services.bridge.backend import Backend, make_backend
 from services.bridge.baxter.config import BaxterConfig, parse_baxter_config
 from services.bridge.baxter.core import grip_force_from_percent, parse_gripper_args
 from services.bridge.baxter.errors import BaxterConfigError
+from services.bridge.baxter.fake_messages import (
+    arm_joint_state,
+    gripper_joint_state,
+    optical_motion,
+    static_weight_wrench,
+    wrist_wrench,
+)
 from services.bridge.baxter.keys import topic_key
 from services.bridge.baxter.messages import (
     AssemblyState,
@@ -68,8 +75,6 @@ from services.bridge.baxter.messages import (
     JointCommand,
     JointState,
     OpticalMotion,
-    Vector3,
-    Wrench,
     WrenchStamped,
 )
 from services.bridge.baxter.ros1 import Ros1DecodeError, Ros1Message, Time
@@ -82,15 +87,6 @@ from services.sim_kinect.errors import KinectConfigError
 log = logging.getLogger(__name__)
 
 SERVICE_NAME = "fake_baxter"
-
-#: Baxter's /robot/joint_states names (17 joints, alphabetical as the robot sends them).
-BAXTER_JOINTS: tuple[str, ...] = (
-    "head_nod", "head_pan", "left_e0", "left_e1", "left_s0", "left_s1", "left_w0", "left_w1",
-    "left_w2", "right_e0", "right_e1", "right_s0", "right_s1", "right_w0", "right_w1", "right_w2",
-    "torso_t0",
-)
-GRIPPER_JOINTS: tuple[str, ...] = ("right_gripper_l_finger_joint", "right_gripper_r_finger_joint")
-
 
 class FakeBaxterConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
     """The fake robot (``[services.fake_baxter.config]``).
@@ -285,41 +281,21 @@ class FakeBaxter:
         return Header(seq=self._seq, stamp=Time.from_ns(time.time_ns()), frame_id=frame_id)
 
     def _publish(self) -> None:
-        reading = self.physics.read()
-        arm = dict(zip(RIGHT_ARM_JOINTS, zip(reading.position_rad, reading.velocity_rad_s, reading.effort_nm,
-                                             strict=True), strict=True))
-        pos, vel, eff = [], [], []
-        for name in BAXTER_JOINTS:
-            p, v, e = arm.get(name, (0.0, 0.0, 0.0))
-            pos.append(float(p))
-            vel.append(float(v))
-            eff.append(float(e))
-        self._put("joint_states", JointState(header=self._header(), name=BAXTER_JOINTS, position=tuple(pos),
-                                             velocity=tuple(vel), effort=tuple(eff)))
+        self._put("joint_states", arm_joint_state(self._header(), RIGHT_ARM_JOINTS, self.physics.read()))
         if self._seq % 10 == 0:
-            finger = 0.0 if self.gripper_closed else 0.02
-            self._put("joint_states", JointState(header=self._header(), name=GRIPPER_JOINTS,
-                                                 position=(finger, -finger), velocity=(0.0, 0.0), effort=(0.0, 0.0)))
+            self._put("joint_states", gripper_joint_state(self._header(), self.gripper_closed))
         self._put("robot_state", AssemblyState(ready=self.enabled, enabled=self.enabled))
         captured: dict[str, dict[str, Any]] = {}
         self.physics.publish_extras(lambda suffix, fields: captured.__setitem__(suffix, fields))
         wrench = captured.get("sensors/wrist_wrench")
         if wrench is None and not self.config.contact.enabled:
-            weight = self.config.object_mass_kg * 9.81 if self.gripper_closed and self.grip_n > 0 else 0.0
-            wrench = {"force_n": (0.0, weight, 0.0), "torque_nm": (0.0, 0.0, 0.0)}
+            wrench = static_weight_wrench(self.config.object_mass_kg, self.gripper_closed and self.grip_n > 0)
         if wrench is not None:
-            # gripper = R sensor  →  sensor = Rᵀ gripper
-            force = self._ft_rotation.T @ np.asarray(wrench["force_n"], float)
-            torque = self._ft_rotation.T @ np.asarray(wrench.get("torque_nm", (0.0, 0.0, 0.0)), float)
-            self._put("wrist_wrench", WrenchStamped(header=self._header("right_wrist_ft"), wrench=Wrench(
-                force=Vector3(*map(float, force)), torque=Vector3(*map(float, torque)))))
+            self._put("wrist_wrench", wrist_wrench(self._header("right_wrist_ft"), wrench, self._ft_rotation))
         motion = captured.get("sensors/object_motion")
         if motion is not None:
-            counts = self._optical_rotation.T @ np.asarray(motion["displacement_counts"], float)
-            self._put("optical_motion", OpticalMotion(
-                header=self._header("right_finger_optical"), dx_counts=int(round(counts[0])),
-                dy_counts=int(round(counts[1])), dt=float(motion["dt_s"]),
-                surface_quality=100 if motion["surface_valid"] else 0))
+            self._put("optical_motion", optical_motion(self._header("right_finger_optical"), motion,
+                                                       self._optical_rotation))
         truth = captured.get("sim/truth")
         if truth is not None and self._truth_pub is not None:
             self._truth_pub.put(**truth)

@@ -8,6 +8,7 @@ import random
 
 import pytest
 
+from services.bridge.baxter.keys import topic_key
 from services.bridge.baxter.messages import (
     MESSAGE_TYPES,
     AssemblyState,
@@ -81,6 +82,13 @@ PUBLISHED_MD5 = {
 @pytest.mark.parametrize("type_name", sorted(PUBLISHED_MD5))
 def test_md5_equals_the_published_sum(type_name):
     assert md5sum(type_name) == PUBLISHED_MD5[type_name]
+
+
+@pytest.mark.parametrize("type_name", sorted(PUBLISHED_MD5))
+def test_the_class_and_the_zenoh_key_announce_the_published_sum(type_name):
+    # What goes on the wire: the class's sum and the md5 chunk of zenoh-bridge-ros1's key.
+    assert MESSAGE_TYPES[type_name].md5sum() == PUBLISHED_MD5[type_name]
+    assert topic_key("/robot/x", type_name).split("/")[1] == PUBLISHED_MD5[type_name]
 
 
 def md5_of(text: str) -> str:
