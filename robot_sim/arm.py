@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_sim.baxter import RIGHT_ARM_HOME_RAD, JointLimits, arm_model
+from handover_model.baxter import RIGHT_ARM_HOME_RAD, JointLimits, arm_model
 
 
 @dataclass

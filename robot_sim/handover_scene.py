@@ -41,7 +41,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from robot_sim import scene
+from handover_model import scene
 from robot_sim.contact.config import ContactSimError, ObjectParams, SimConfig
 from robot_sim.contact.plant import ContactPlant
 from robot_sim.contact.receiver import absent, behaviour_by_name, min_jerk

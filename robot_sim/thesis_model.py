@@ -40,7 +40,7 @@ from typing import Literal, Sequence
 
 import numpy as np
 
-from robot_sim.contact.interfaces import GripController, Mode, SensorSample
+from handover_model.grip import GripController, Mode, SensorSample
 
 STANDARD_GRAVITY_M_S2 = 9.81
 

@@ -6,7 +6,7 @@ limit), receiver behaviours, sensors (wrist F/T, ADNS-2051-class optical sensor)
 from ground truth, and a vectorised, seedable, parallel batch runner. Usable without any bus.
 """
 
-from robot_sim.contact.interfaces import GripController, Mode, SensorSample
+from handover_model.grip import GripController, Mode, SensorSample
 from robot_sim.contact.outcome import (
     BatchOutcome,
     EpisodeOutcome,

@@ -25,7 +25,7 @@ from tqdm import tqdm
 
 from robot_sim.contact.config import ContactSimError, SimConfig
 from robot_sim.contact.episode import run_vectorised
-from robot_sim.contact.interfaces import GripController
+from handover_model.grip import GripController
 from robot_sim.contact.outcome import BatchOutcome
 from robot_sim.contact.receiver import ReceiverParams, sample_behaviours, stack_receivers
 

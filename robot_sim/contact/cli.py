@@ -22,7 +22,7 @@ from robot_sim.contact.batch import run_batch
 from robot_sim.contact.config import ContactSimError, GripperParams, SensorParams, SimConfig
 from robot_sim.contact.controllers import ConstantGrip, ReleaseAfter
 from robot_sim.contact.episode import run_episode
-from robot_sim.contact.interfaces import GripController
+from handover_model.grip import GripController
 from robot_sim.contact.receiver import behaviour_by_name
 
 log = logging.getLogger("robot_sim.contact")

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from robot_sim.contact.config import ContactSimError
-from robot_sim.contact.interfaces import SensorSample
+from handover_model.grip import SensorSample
 
 __all__ = ["ConstantGrip", "ReleaseAfter"]
 

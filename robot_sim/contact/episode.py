@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from robot_sim.contact.config import ContactSimError, SimConfig
-from robot_sim.contact.interfaces import GripController, SensorSample
+from handover_model.grip import GripController, SensorSample
 from robot_sim.contact.outcome import (
     BatchOutcome,
     EpisodeOutcome,

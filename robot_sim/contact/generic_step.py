@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from robot_sim.contact.interfaces import Mode
+from handover_model.grip import Mode
 
 if TYPE_CHECKING:
     from robot_sim.contact.plant import ContactPlant

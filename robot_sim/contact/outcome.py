@@ -7,7 +7,7 @@ of the thesis model mode (`robot_sim.thesis_model`): both fill an `EpisodeTrace`
 give the same numbers).
 
 Frame: gripper frame of the transfer loop, x toward the receiver, y DOWN (see
-`robot_sim.contact.interfaces`). Positions are the object's displacement from where it was
+`handover_model.grip`). Positions are the object's displacement from where it was
 first grasped, which is also its displacement relative to the pads (the gripper does not
 move during the transfer phase in this simulator).
 
@@ -31,7 +31,7 @@ from dataclasses import dataclass, field, asdict
 
 import numpy as np
 
-from robot_sim.contact.interfaces import GripController, Mode, SensorSample
+from handover_model.grip import GripController, Mode, SensorSample
 
 __all__ = [
     "Mode",

@@ -42,7 +42,7 @@ from robot_sim.contact.actuator import GripperActuator
 from robot_sim.contact.backend import NoiseSource, NumpyBackend, ScalarBackend
 from robot_sim.contact.config import ContactSimError, SimConfig
 from robot_sim.contact.generic_step import step_generic
-from robot_sim.contact.interfaces import Mode, SensorSample
+from handover_model.grip import Mode, SensorSample
 from robot_sim.contact.observation import Observation
 from robot_sim.contact.receiver import Coupling, ReceiverParams, reference
 from robot_sim.contact.rest import Rest, advance_scalar, reference_settled, shared_repeats

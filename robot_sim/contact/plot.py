@@ -10,7 +10,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from robot_sim.contact.interfaces import Mode  # noqa: E402
+from handover_model.grip import Mode  # noqa: E402
 from robot_sim.contact.outcome import EpisodeOutcome, EpisodeTrace  # noqa: E402
 
 __all__ = ["plot_episode"]

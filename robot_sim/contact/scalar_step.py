@@ -20,7 +20,7 @@ import math
 from typing import TYPE_CHECKING
 
 from robot_sim.contact.actuator import DEAD_BAND_M
-from robot_sim.contact.interfaces import Mode
+from handover_model.grip import Mode
 
 if TYPE_CHECKING:
     from robot_sim.contact.plant import ContactPlant

@@ -3,7 +3,7 @@ scene (receiver, table, object, Baxter's arm). See `robot_sim.kinect.sim.KinectS
 
 from robot_sim.kinect.camera import KinectCamera
 from robot_sim.kinect.receiver import BodySize, ReceiverBody
-from robot_sim.kinect.robot_geometry import ArmGeometry
+from handover_model.robot_geometry import ArmGeometry
 from robot_sim.kinect.sim import KinectFrame, KinectScenario, KinectSim, KinectTruth
 from robot_sim.kinect.skeleton_model import SkeletonErrorParams
 

@@ -1,7 +1,7 @@
 """Ray casting of one capsule into a rectangle of the camera's rays, with fewer array passes.
 
 `BlockCaster.capsule` returns, pixel for pixel, the same float64 values as
-`robot_sim.kinect.shapes.ray_capsule` (the same operations on the same operands in the same
+`handover_model.shapes.ray_capsule` (the same operations on the same operands in the same
 order, so the same roundings), but
 
 - writes into scratch buffers kept between calls instead of allocating a temporary per step;
@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_sim.kinect.shapes import Capsule
+from handover_model.shapes import Capsule
 
 #: `ray_capsule`'s threshold (m⁴ for a, m² for |b − a|²) below which a ray is parallel to
 #: the axis, or the capsule is a sphere.
@@ -28,7 +28,7 @@ _N_BOOL = 4
 
 
 def _sphere_entry(b: np.ndarray, c: np.ndarray | float, dd: np.ndarray) -> np.ndarray:
-    """`robot_sim.kinect.shapes._sphere_entry` on flat arrays: the same arithmetic, new array."""
+    """`handover_model.shapes._sphere_entry` on flat arrays: the same arithmetic, new array."""
     h = b * b
     h -= dd * c
     ok = h >= 0.0

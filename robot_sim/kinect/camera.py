@@ -1,7 +1,7 @@
 """Where the simulated Kinect sits and how it projects.
 
 The one documented place for the sensor's pose (the rest of the scene is in
-`robot_sim.scene`). Frames:
+`handover_model.scene`). Frames:
 
 - `base`: Baxter's base frame (x forward, y left, z up), metres.
 - optical frame of the camera: z forward along the optical axis, x right, y down (the
@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from robot_sim import scene
+from handover_model import scene
 
 #: Kinect v1 depth-image size after 2x binning (px).
 KINECT_WIDTH_PX = 320

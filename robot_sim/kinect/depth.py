@@ -29,7 +29,7 @@ from scipy.special import ndtri
 
 from robot_sim.kinect import camera as cam
 from robot_sim.kinect.camera import KinectCamera
-from robot_sim.kinect.shapes import Box, Capsule, ray_box, ray_capsule, ray_horizontal_plane
+from handover_model.shapes import Box, Capsule, ray_box, ray_capsule, ray_horizontal_plane
 
 #: Random depth error coefficient (m⁻¹): σ_z = coefficient · z² (to first order).
 DEPTH_NOISE_COEFF_PER_M = 1.425e-3

@@ -1,14 +1,13 @@
 """The receiver's body: a 15-joint OpenNI-style skeleton and the capsules around it.
 
-Body proportions are fractions of the standing height H after Drillis & Contini (1966)
-("Body segment parameters", Table of segment lengths as fractions of height), with the arm
-lengths adjusted so that the arm span (fingertip to fingertip) equals H, as it does on
-average in adults. The same table is what the tracker's body-dimension estimator assumes,
-and it is stated in docs/sim_kinect.md (the simulated Kinect).
+Body proportions are fractions of the standing height H from the stack's one anthropometric
+table (`handover_model.body`: Drillis & Contini (1966), the upper limb scaled so that the arm
+span, fingertip to fingertip, equals H as it does on average in adults). The tracker's
+body-dimension estimator and the planner read the same table.
 
 Frames: `base` (x forward from Baxter, y left, z up), metres. The receiver stands (or sits)
 across the table facing Baxter (−x); facing −x, its right hand side is +y. Its right
-(receiving) shoulder lies in the task plane (`robot_sim.scene`).
+(receiving) shoulder lies in the task plane (`handover_model.scene`).
 """
 
 from __future__ import annotations
@@ -19,29 +18,30 @@ from typing import Literal
 import numpy as np
 
 from bus_schema.messages import SKELETON_JOINTS
-from robot_sim import scene
-from robot_sim.kinect.shapes import Capsule
+from handover_model import body, scene
+from handover_model.shapes import Capsule
 
 Posture = Literal["standing", "sitting"]
 
-#: Heights above the floor of the standing skeleton's joints, fractions of H.
-FOOT_HEIGHT_RATIO = 0.039
-KNEE_HEIGHT_RATIO = 0.285
-HIP_HEIGHT_RATIO = 0.530
-TORSO_HEIGHT_RATIO = 0.670
-SHOULDER_HEIGHT_RATIO = 0.818
-HEAD_CENTRE_HEIGHT_RATIO = 0.930
-#: Half distances between left and right joints, fractions of H.
-SHOULDER_HALF_WIDTH_RATIO = 0.108
-HIP_HALF_WIDTH_RATIO = 0.050
-#: Segment lengths, fractions of H.
-UPPER_ARM_RATIO = 0.172  # shoulder joint -> elbow joint
-FOREARM_RATIO = 0.180  # elbow joint -> hand joint (palm centre)
-HAND_TIP_RATIO = 0.040  # hand joint -> fingertip
+# The receiver's proportions, fractions of H, from the stack's one anthropometric table
+# (`handover_model.body`) with the average adult's arm span (L = H).
+#: Heights above the floor of the standing skeleton's joints.
+FOOT_HEIGHT_RATIO = body.ANKLE_HEIGHT_FRACTION
+KNEE_HEIGHT_RATIO = body.KNEE_HEIGHT_FRACTION
+HIP_HEIGHT_RATIO = body.HIP_HEIGHT_FRACTION
+TORSO_HEIGHT_RATIO = body.TORSO_JOINT_HEIGHT_FRACTION
+SHOULDER_HEIGHT_RATIO = body.SHOULDER_HEIGHT_FRACTION
+HEAD_CENTRE_HEIGHT_RATIO = body.HEAD_JOINT_HEIGHT_FRACTION
+#: Half distances between left and right joints.
+SHOULDER_HALF_WIDTH_RATIO = body.AVERAGE_UPPER_LIMB.shoulder_half_width_m
+HIP_HALF_WIDTH_RATIO = body.HIP_JOINT_HALF_WIDTH_FRACTION
+#: Segment lengths.
+UPPER_ARM_RATIO = body.AVERAGE_UPPER_LIMB.upper_arm_m  # shoulder joint -> elbow joint
+FOREARM_RATIO = body.AVERAGE_UPPER_LIMB.elbow_to_palm_centre_m  # elbow joint -> hand joint (palm centre)
+HAND_TIP_RATIO = body.AVERAGE_UPPER_LIMB.palm_centre_to_fingertip_m  # hand joint -> fingertip
 #: Largest forward lean of the upper body when the hand's target is beyond the straight arm:
-#: the shoulders move this fraction of H toward the target (trunk flexion about the hips;
-#: the planner assumes the same 0.04·H, `services.planner` `lean_fraction_of_height`).
-MAX_LEAN_RATIO = 0.04
+#: the shoulders move this fraction of H toward the target (trunk flexion about the hips).
+MAX_LEAN_RATIO = body.MAX_LEAN_FRACTION
 THIGH_RATIO = HIP_HEIGHT_RATIO - KNEE_HEIGHT_RATIO
 SHANK_RATIO = KNEE_HEIGHT_RATIO - FOOT_HEIGHT_RATIO
 

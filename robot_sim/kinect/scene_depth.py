@@ -25,7 +25,7 @@ import numpy as np
 from robot_sim.kinect.block_cast import BlockCaster
 from robot_sim.kinect.camera import KinectCamera
 from robot_sim.kinect.depth import DepthRenderer, Rect
-from robot_sim.kinect.shapes import Box, Capsule, ray_box
+from handover_model.shapes import Box, Capsule, ray_box
 
 
 @dataclass(frozen=True)

@@ -17,7 +17,7 @@ buffers (`robot_sim.kinect.quantise`). The images equal those of the full ray ca
 
 Frames: everything in Baxter's `base` (x forward, y left, z up), metres; the camera's pose
 and intrinsics are in `robot_sim.kinect.camera`, the table and the receiver's placement in
-`robot_sim.scene`.
+`handover_model.scene`.
 """
 
 from __future__ import annotations
@@ -28,13 +28,13 @@ from typing import Any, Literal
 import numpy as np
 
 from bus_schema.messages import SKELETON_JOINTS, SkeletonJoint
-from robot_sim import scene
+from handover_model import scene
 from robot_sim.kinect.camera import KinectCamera
 from robot_sim.kinect.quantise import DepthQuantiser
 from robot_sim.kinect.receiver import BodySize, ReceiverBody, min_jerk
-from robot_sim.kinect.robot_geometry import TORSO_CAPSULES, ArmGeometry
+from handover_model.robot_geometry import TORSO_CAPSULES, ArmGeometry
 from robot_sim.kinect.scene_depth import SceneDepthRenderer, StaticScene, render_reference
-from robot_sim.kinect.shapes import Box, Capsule
+from handover_model.shapes import Box, Capsule
 from robot_sim.kinect.skeleton_model import SkeletonErrorModel, SkeletonErrorParams
 
 TABLE_THICKNESS_M = 0.03
@@ -44,7 +44,7 @@ DEFAULT_OBJECT_SIZE_M = (0.06, 0.06, 0.12)
 
 
 def table_boxes_and_legs() -> tuple[Box, list[Capsule]]:
-    """The table top (a box) and its four legs (capsules) from `robot_sim.scene`."""
+    """The table top (a box) and its four legs (capsules) from `handover_model.scene`."""
     c = scene.TABLE_TOP_CENTRE_BASE_M
     half = np.array([scene.TABLE_DEPTH_M / 2.0, scene.TABLE_WIDTH_M / 2.0])
     top = Box(
@@ -224,7 +224,7 @@ class KinectSim:
         Args:
             q_arm_rad: Baxter right-arm joints (7,), rad.
             object_position_m: object centre (m, `base`); default: waiting on the table at
-                `robot_sim.scene.OBJECT_PICK_BASE_M`.
+                `handover_model.scene.OBJECT_PICK_BASE_M`.
             right_hand_m: where the receiver's right hand is (m, `base`), when another model
                 (the handover scene) drives it; default: this simulator's own reach.
         """

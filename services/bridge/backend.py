@@ -17,7 +17,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from robot_sim.arm import SimulatedArm
-from robot_sim.baxter import RIGHT_ARM_JOINTS, JointLimits, arm_model
+from handover_model.baxter import RIGHT_ARM_JOINTS, JointLimits, arm_model
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,6 @@
 """Release controllers of the object-transfer loop, all behind one vectorised interface.
 
-Every controller implements `robot_sim.contact.interfaces.GripController`:
+Every controller implements `handover_model.grip.GripController`:
 
     controller.reset(n_episodes)              # fresh state for a batch of episodes
     grip_force_n = controller.step(sample)    # SensorSample in, commanded F_G (N) out
@@ -32,7 +32,7 @@ from typing import Callable, Protocol
 
 import numpy as np
 
-from robot_sim.contact.interfaces import GripController, Mode, SensorSample
+from handover_model.grip import GripController, Mode, SensorSample
 from services.gripper.errors import GripperError
 
 #: ISO/TS 15066 quasi-static limit for the hand, N: no controller may command more.

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_sim.contact.interfaces import Mode, SensorSample
+from handover_model.grip import Mode, SensorSample
 from services.gripper.config import GripperConfig
 from services.gripper.controllers import ModeReportingController, make_controller
 from services.gripper.errors import GripperError

@@ -15,7 +15,7 @@ import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Trajectory
 
 from bus_schema import topics
-from robot_sim.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS, arm_model
+from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS, arm_model
 from services.runtime import ServiceNode
 
 log = logging.getLogger(__name__)

@@ -88,7 +88,7 @@ def say(text: str, console: bool = True) -> None:
 
 
 #: The stack's own packages (an editable install is not byte-compiled by pip).
-STACK_PACKAGES = ("bus_schema", "robot_sim", "services")
+STACK_PACKAGES = ("bus_schema", "handover_model", "robot_sim", "services")
 
 
 def precompile_stack() -> None:

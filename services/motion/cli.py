@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 
-from robot_sim import baxter, scene
+from handover_model import baxter, scene
 from services.motion.config import MotionConfig
 from services.motion.errors import MotionError
 from services.runtime import ServiceError, base_parser, load_profile, run_main

@@ -36,7 +36,7 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bus_schema.messages import MotionGoal, MotionStop
-from robot_sim import baxter
+from handover_model import baxter
 from services.motion.config import MotionConfig
 from services.motion.errors import GoalRejected, IkError, MotionError, TrajectoryError
 from services.motion.goal_filter import GoalFilter

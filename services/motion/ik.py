@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_sim import baxter
+from handover_model import baxter
 from services.motion.config import MotionConfig
 from services.motion.errors import IkError, IkInfeasibleError, IkNoProgressError, MotionError
 

@@ -15,7 +15,7 @@ import logging
 import time
 
 from bus_schema import topics
-from robot_sim.baxter import RIGHT_ARM_JOINTS
+from handover_model.baxter import RIGHT_ARM_JOINTS
 from services.motion.config import MotionConfig
 from services.motion.core import MotionController, arm_positions_from
 from services.motion.errors import MotionError

@@ -9,7 +9,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from robot_sim import baxter  # noqa: E402
+from handover_model import baxter  # noqa: E402
 
 
 def plot_record(record, path: str | Path, title: str = "") -> None:

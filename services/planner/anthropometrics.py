@@ -2,31 +2,17 @@
 
 The thesis measures each actor's height H, arm span L, weight W (and waistline height) and
 derives the arm's link lengths "from studies that relate the length of each link in the human
-arm to height and arm span" (its ref. [40]), and the link masses from the body weight. We use
-the following published tables, named where they are used:
+arm to height and arm span" (its ref. [40]), and the link masses from the body weight. The
+proportions come from the stack's one anthropometric table, `handover_model.body` (Drillis &
+Contini segment lengths, Dempster masses and centres of mass, Pheasant's sitting shoulder
+height; the sources are named there):
 
-Segment lengths — Drillis & Contini (1966), "Body segment parameters", Report 1166-03,
-New York University; as reproduced in D. A. Winter, *Biomechanics and Motor Control of Human
-Movement*, 4th ed., Fig. 4.1 (fractions of stature H):
-
-    shoulder (joint-to-joint) width 0.259 H, upper arm 0.186 H, forearm 0.146 H,
-    hand (wrist to fingertip) 0.108 H, shoulder height 0.818 H.
-
-Taken literally, this chain gives a fingertip-to-fingertip span of 0.259 + 2·(0.186 + 0.146 +
-0.108) = 1.139 H, whereas measured arm spans are close to H (0.95–1.06 H). We therefore scale
-the whole upper-limb chain of the table uniformly so that it spans the measured arm span L:
-every arm length is ``fraction · L / 1.139``. Link lengths thus come from the arm span, shoulder
-height from the height, which is how the thesis relates them (height and arm span).
-
-Segment masses and centres of mass — Dempster (1955) via Winter, Table 4.1 (fractions of body
-mass W; centre of mass as a fraction of the segment length from its proximal joint):
-
-    upper arm: 0.028 W, centre of mass 0.436 from the shoulder;
-    forearm and hand: 0.022 W, centre of mass 0.682 of the forearm length from the elbow.
-
-Sitting shoulder height — Pheasant & Haslegrave, *Bodyspace*, 3rd ed. (British adults aged
-19–65): sitting shoulder height above the seat ≈ 0.34 H (595 mm for a 1740 mm stature in men,
-555 mm for 1610 mm in women). A sitting actor's shoulder is at the seat height plus that.
+- link lengths from the arm span: the table's upper-limb chain scaled to span L
+  (`handover_model.body.upper_limb_m`); shoulder height from the height H (0.818 H standing;
+  the seat height + 0.34 H sitting);
+- link masses and centres of mass from the weight W: upper arm 0.028 W, centre of mass 0.436
+  from the shoulder; forearm and hand 0.022 W, centre of mass 0.682 of the forearm from the
+  elbow.
 
 The distal link of the model ends at the grasp point, a configurable fraction of the hand
 length beyond the wrist (default 0.5: the middle of the hand, where a cup is held).
@@ -37,27 +23,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
+from handover_model.body import (
+    FOREARM_HAND_COM_FRACTION,
+    FOREARM_HAND_MASS_FRACTION,
+    SHOULDER_HEIGHT_FRACTION,
+    SITTING_SHOULDER_ABOVE_SEAT_FRACTION,
+    UPPER_ARM_COM_FRACTION,
+    UPPER_ARM_MASS_FRACTION,
+    upper_limb_m,
+)
 from services.planner.errors import PlannerError
 
 Posture = Literal["standing", "sitting"]
-
-# Drillis & Contini (1966), fractions of stature H (Winter, Fig. 4.1).
-DC_SHOULDER_WIDTH = 0.259
-DC_UPPER_ARM = 0.186
-DC_FOREARM = 0.146
-DC_HAND = 0.108
-DC_SHOULDER_HEIGHT = 0.818
-#: Fingertip-to-fingertip span of the Drillis & Contini chain, fraction of H.
-DC_SPAN = DC_SHOULDER_WIDTH + 2.0 * (DC_UPPER_ARM + DC_FOREARM + DC_HAND)
-
-# Dempster (1955) via Winter, Table 4.1.
-DEMPSTER_UPPER_ARM_MASS = 0.028
-DEMPSTER_UPPER_ARM_COM = 0.436
-DEMPSTER_FOREARM_HAND_MASS = 0.022
-DEMPSTER_FOREARM_HAND_COM = 0.682
-
-# Pheasant & Haslegrave, Bodyspace: sitting shoulder height above the seat, fraction of H.
-PHEASANT_SITTING_SHOULDER_HEIGHT = 0.34
 
 #: Plausible human bodies (inclusive). Outside these the inputs are most likely a unit
 #: mistake (cm for m, lb for kg) or a tracking failure.
@@ -160,8 +137,8 @@ class PlanarArm:
 def shoulder_height_m(body: BodyDimensions) -> float:
     """Shoulder joint height above the floor, m (Drillis & Contini standing; Pheasant sitting)."""
     if body.posture == "sitting":
-        return body.seat_height_m + PHEASANT_SITTING_SHOULDER_HEIGHT * body.height_m
-    return DC_SHOULDER_HEIGHT * body.height_m
+        return body.seat_height_m + SITTING_SHOULDER_ABOVE_SEAT_FRACTION * body.height_m
+    return SHOULDER_HEIGHT_FRACTION * body.height_m
 
 
 def planar_arm(
@@ -186,10 +163,8 @@ def planar_arm(
         raise PlannerError(
             f"grasp fraction of hand = {grasp_fraction_of_hand:g} must be within 0..1"
         )
-    span_scale = body.arm_span_m / DC_SPAN  # metres per unit of the D&C fraction
-    upper_arm = DC_UPPER_ARM * span_scale
-    forearm = DC_FOREARM * span_scale
-    hand = DC_HAND * span_scale
+    limb = upper_limb_m(body.arm_span_m)
+    upper_arm, forearm, hand = limb.upper_arm_m, limb.forearm_m, limb.hand_m
     if shoulder_height_override_m is not None:
         _check_range("shoulder height", shoulder_height_override_m, (0.3, 2.2), "m")
         shoulder = shoulder_height_override_m
@@ -198,10 +173,10 @@ def planar_arm(
     return PlanarArm(
         upper_arm_m=upper_arm,
         forearm_to_grasp_m=forearm + grasp_fraction_of_hand * hand,
-        upper_arm_mass_kg=DEMPSTER_UPPER_ARM_MASS * body.weight_kg,
-        forearm_hand_mass_kg=DEMPSTER_FOREARM_HAND_MASS * body.weight_kg,
-        upper_arm_com_m=DEMPSTER_UPPER_ARM_COM * upper_arm,
-        forearm_hand_com_m=DEMPSTER_FOREARM_HAND_COM * forearm,
+        upper_arm_mass_kg=UPPER_ARM_MASS_FRACTION * body.weight_kg,
+        forearm_hand_mass_kg=FOREARM_HAND_MASS_FRACTION * body.weight_kg,
+        upper_arm_com_m=UPPER_ARM_COM_FRACTION * upper_arm,
+        forearm_hand_com_m=FOREARM_HAND_COM_FRACTION * forearm,
         shoulder_height_m=shoulder,
     )
 

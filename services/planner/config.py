@@ -57,7 +57,8 @@ from typing import Any, Literal
 import msgspec
 import numpy as np
 
-from robot_sim import scene
+from handover_model import scene
+from handover_model.body import MAX_LEAN_FRACTION
 from services.planner.anthropometrics import BodyDimensions
 from services.planner.djt import DJTSettings
 from services.planner.errors import PlannerError
@@ -114,7 +115,7 @@ class ModelConfig(_Cfg, frozen=True, kw_only=True):
     min_height_above_table_m: float = 0.0
     max_reach_fraction: float = 1.0
     object_load: Literal["giver", "receiver", "both", "none"] = "giver"
-    lean_fraction_of_height: float = 0.04
+    lean_fraction_of_height: float = MAX_LEAN_FRACTION
     #: Highest upper-arm elevation from hanging an actor takes an object with, deg (90 =
     #: upper arm horizontal; 180 = the thesis's model, capped only by the arm straight up).
     #: Both modelled arms, the robot giver's included. See `djt.UPPER_ARM_MAX_ANGLE_RAD`.

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from bus_schema.messages import HumanState
+from handover_model.body import MAX_LEAN_FRACTION
 from services.planner.anthropometrics import BodyDimensions, planar_arm
 from services.planner.config import PlannerConfig
 from services.planner.djt import Actor, CostMap, DJTOptimum, DJTSettings, Dyad, optimise
@@ -56,7 +57,7 @@ class DyadGeometry:
     giver_shoulder_x_task_m: float = -0.5
     receiver_shoulder_x_task_m: float = 0.5
     table_height_m: float = 0.70
-    lean_fraction_of_height: float = 0.04
+    lean_fraction_of_height: float = MAX_LEAN_FRACTION
     giver_is_robot: bool = False
     grasp_fraction_of_hand: float = 0.5
     giver_shoulder_height_m: float | None = None

@@ -9,7 +9,7 @@ y left, z up, metres) by two configurable quantities:
   (normalised here); the task z axis is `base` z.
 
 A task point (x, z) is the `base` point ``origin + x·(ax, ay, 0) + z·(0, 0, 1)``. The defaults
-come from `robot_sim.scene`: the robot stands at the table facing the receiver, the plane runs
+come from `handover_model.scene`: the robot stands at the table facing the receiver, the plane runs
 along `base` +x through Baxter's right shoulder (y = scene.TASK_PLANE_Y_M), and its origin is
 half the actor separation in front of that shoulder, on the table top.
 """
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from robot_sim import scene
+from handover_model import scene
 from services.planner.errors import PlannerError
 
 DEFAULT_ORIGIN_BASE_M = (scene.TASK_ORIGIN_X_M, scene.TASK_PLANE_Y_M, scene.TABLE_TOP_Z_M)

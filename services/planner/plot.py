@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.axes import Axes
 
-from robot_sim import scene
+from handover_model import scene
 from services.planner.core import TransferPlan
 from services.planner.djt import elbow_position
 

@@ -156,7 +156,7 @@ def _robot_overrides(robot_name: str) -> dict[str, rrb.EntityBehavior]:
     overrides = {f"{robot_name}/collision_geometries/{kind}": rrb.EntityBehavior(visible=False)
                  for kind in ("mesh", "sphere")}
     try:
-        from robot_sim.baxter import urdf_path
+        from handover_model.baxter import urdf_path
 
         links = links_without_importable_mesh(urdf_path())
     except Exception:  # noqa: BLE001 - the model is optional for a recording: then show everything

@@ -106,7 +106,7 @@ class RobotModel:
     """Baxter's model logged once (static) in `mode`, and its joint transforms."""
 
     def __init__(self, rec: rr.RecordingStream, mode: RobotModelMode, pose_every: int = 1) -> None:
-        from robot_sim.baxter import urdf_path
+        from handover_model.baxter import urdf_path
 
         path = urdf_path()  # also sets ROS_PACKAGE_PATH so the meshes resolve
         self.tree = rr.urdf.UrdfTree.from_file_path(path)

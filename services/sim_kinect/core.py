@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from robot_sim.baxter import RIGHT_ARM_JOINTS
+from handover_model.baxter import RIGHT_ARM_JOINTS
 from services.runtime.repeat import RepeatGate, settled_key
 from services.sim_kinect.config import KinectConfig
 

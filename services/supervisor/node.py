@@ -13,7 +13,7 @@ import logging
 import queue
 import time
 from bus_schema import topics
-from robot_sim.baxter import RIGHT_ARM_HOME_RAD
+from handover_model.baxter import RIGHT_ARM_HOME_RAD
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.runtime.liveliness import LivelinessWatcher
 from services.runtime.node import heartbeat_period_s

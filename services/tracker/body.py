@@ -1,6 +1,6 @@
 """Body dimensions from the skeleton, robust over frames (medians over a window).
 
-Model (the anthropometric table of `robot_sim.kinect.receiver`: Drillis & Contini segment
+Model (the stack's one anthropometric table, `handover_model.body`: Drillis & Contini segment
 ratios of the standing height H, arms scaled so the arm span equals H):
 - posture: standing when the thighs are closer to vertical than to horizontal
   ((hip z − knee z) / thigh length > 0.5), sitting otherwise;
@@ -10,7 +10,7 @@ ratios of the standing height H, arms scaled so the arm span equals H):
   estimate H = (shoulder z − hip z) / 0.288;
 - shoulder height: mean height of the shoulder joints above the floor (in the current
   posture);
-- arm span: shoulder-joint distance + both arms' (upper arm + forearm) + 2 × 0.040 H
+- arm span: shoulder-joint distance + both arms' (upper arm + forearm) + 2 × 0.047 H
   (hand joint to fingertip, which the skeleton cannot see);
 - weight: not measurable by a camera; it comes from the receiver's profile.
 Per-frame values are kept for the last `window` frames and the estimate is their median, so
@@ -28,14 +28,14 @@ from typing import Literal
 
 import numpy as np
 
-from robot_sim.kinect import receiver as anthropometry
+from handover_model import body as anthropometry
 from services.tracker.lean import RowWindow, median_rows, row_norms
 
 REQUIRED_JOINTS = (
     "head", "left_shoulder", "right_shoulder", "left_elbow", "right_elbow", "left_hand",
     "right_hand", "left_hip", "right_hip", "left_knee", "right_knee", "left_foot", "right_foot",
 )
-LEG_RATIO = anthropometry.THIGH_RATIO + anthropometry.SHANK_RATIO
+LEG_RATIO = anthropometry.HIP_HEIGHT_FRACTION - anthropometry.ANKLE_HEIGHT_FRACTION  # thigh + shank
 _J = {name: i for i, name in enumerate(REQUIRED_JOINTS)}
 #: Segments (from, to) as rows of the stacked joints: thighs, shanks, upper arms and forearms
 #: (left, right), then shoulder to shoulder.
@@ -139,11 +139,11 @@ class BodyDimensionEstimator:
         legs = thigh + shank
         posture: Literal["standing", "sitting"] = "standing" if vertical > 0.5 else "sitting"
         if posture == "standing":
-            height = head_h / anthropometry.HEAD_CENTRE_HEIGHT_RATIO
+            height = head_h / anthropometry.HEAD_JOINT_HEIGHT_FRACTION
         else:
-            trunk_ratio = anthropometry.SHOULDER_HEIGHT_RATIO - anthropometry.HIP_HEIGHT_RATIO
+            trunk_ratio = anthropometry.SHOULDER_HEIGHT_FRACTION - anthropometry.HIP_HEIGHT_FRACTION
             height = 0.5 * (legs / LEG_RATIO + trunk / trunk_ratio)
-        arm_span = span_no_hands + 2.0 * anthropometry.HAND_TIP_RATIO * height
+        arm_span = span_no_hands + 2.0 * anthropometry.AVERAGE_UPPER_LIMB.palm_centre_to_fingertip_m * height
         return BodyDimensions(
             height_m=float(np.clip(height, 0.0, 3.0)),
             arm_span_m=float(np.clip(arm_span, 0.0, 3.5)),

@@ -35,7 +35,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _offline(args: argparse.Namespace, config: TrackerConfig) -> int:
     from bus_schema import topics as T
-    from robot_sim.kinect.robot_geometry import ArmGeometry
+    from handover_model.robot_geometry import ArmGeometry
     from services.tracker.core import TrackerPipeline, skeleton_frame_from_message
     from services.tracker.pointcloud import depth_frame_from_message
     from services.tracker.replay import read_replay

@@ -9,7 +9,7 @@ from typing import Literal
 
 import msgspec
 
-from robot_sim import scene
+from handover_model import scene
 from services.sim_kinect.config import KinectConfig
 from services.tracker.errors import TrackerConfigError
 

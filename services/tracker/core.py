@@ -23,8 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from bus_schema.messages import Skeleton
-from robot_sim.kinect.robot_geometry import ArmGeometry
-from robot_sim.kinect.shapes import Capsule
+from handover_model.robot_geometry import ArmGeometry
+from handover_model.shapes import Capsule
 from services.tracker.body import BodyDimensionEstimator, BodyDimensions
 from services.tracker.config import TrackerConfig
 from services.tracker.corrections import ProximityFilter, lag_correct, robot_point_mask

@@ -21,7 +21,7 @@ from typing import Literal
 
 import numpy as np
 
-from robot_sim.kinect.shapes import Capsule
+from handover_model.shapes import Capsule
 from services.tracker.lean import vector_norm
 
 

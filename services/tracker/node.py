@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from bus_schema import topics as T
-from robot_sim.baxter import RIGHT_ARM_JOINTS
-from robot_sim.kinect.robot_geometry import ArmGeometry
+from handover_model.baxter import RIGHT_ARM_JOINTS
+from handover_model.robot_geometry import ArmGeometry
 from services.runtime import ServiceNode
 from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.profile import Profile

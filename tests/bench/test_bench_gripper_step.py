@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from robot_sim.contact.interfaces import SensorSample
+from handover_model.grip import SensorSample
 from services.gripper.controllers import FS_PRESETS, fail_safe_law, make_controller
 
 OUT = Path("out/bench/gripper.json")

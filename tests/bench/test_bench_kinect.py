@@ -25,8 +25,8 @@ import time
 import numpy as np
 import pytest
 
-from robot_sim import scene
-from robot_sim.baxter import RIGHT_ARM_HOME_RAD
+from handover_model import scene
+from handover_model.baxter import RIGHT_ARM_HOME_RAD
 from robot_sim.kinect import KinectScenario, KinectSim
 from robot_sim.kinect.depth import kinect_depth_mm
 from robot_sim.kinect.quantise import DepthQuantiser

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from bus_schema import topics
-from robot_sim import scene
+from handover_model import scene
 from services.runtime.testing import ServiceProcess, wait_alive, wait_until
 
 pytestmark = pytest.mark.integration

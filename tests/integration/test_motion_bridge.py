@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from bus_schema import topics
-from robot_sim import baxter, scene
+from handover_model import baxter, scene
 from services.runtime.testing import ServiceProcess, wait_alive, wait_until
 
 pytestmark = pytest.mark.integration

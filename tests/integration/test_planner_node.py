@@ -11,7 +11,7 @@ import pytest
 from bus_schema import topics as T
 from bus_schema.codec import decode, encode
 from bus_schema.messages import HumanState, ObjectEstimate
-from robot_sim import scene
+from handover_model import scene
 from services.planner.config import load_config
 from services.planner.core import plan_for_receiver, receiver_from_human_state
 from services.runtime.testing import BusRouter, ServiceProcess, client_session, loopback_profile, wait_alive

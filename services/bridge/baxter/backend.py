@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 import zenoh
 
-from robot_sim.baxter import RIGHT_ARM_JOINTS, arm_model
+from handover_model.baxter import RIGHT_ARM_JOINTS, arm_model
 from services.bridge.backend import JointReading, PublishFn
 from services.bridge.baxter import core
 from services.bridge.baxter.config import BaxterConfig, parse_baxter_config

@@ -38,7 +38,7 @@ import numpy as np
 
 from robot_sim.contact.config import ContactSimError, SimConfig
 from robot_sim.contact.episode import rest_sample
-from robot_sim.contact.interfaces import GripController, Mode, SensorSample
+from handover_model.grip import GripController, Mode, SensorSample
 from robot_sim.contact.outcome import BatchOutcome, OutcomeAccumulator
 from robot_sim.contact.plant import ContactPlant
 from robot_sim.contact.receiver import ReceiverParams

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from robot_sim.contact.interfaces import Mode
+from handover_model.grip import Mode
 from robot_sim.thesis_model import ThesisRun, ThesisScenario, simulate
 from services.gripper.controllers import FS_PRESETS, make_controller
 from services.gripper.errors import GripperError

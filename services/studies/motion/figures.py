@@ -14,14 +14,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from robot_sim import baxter  # noqa: E402
+from handover_model import baxter  # noqa: E402
 from services.motion.plot import plot_record  # noqa: E402
 
 
 def make_docs_figures(out_dir: Path) -> list[Path]:
     """Transfer with and without the receiver-zone cap, and a stop mid-reach."""
     from bus_schema.messages import MotionGoal, MotionStop
-    from robot_sim import scene
+    from handover_model import scene
     from services.motion.config import MotionConfig
     from services.motion.core import MotionController
     from services.motion.ik import ArmIk

@@ -16,8 +16,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from bus_schema.messages import DepthImage, JointState, SimTruth, Skeleton
-from robot_sim import scene
-from robot_sim.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
+from handover_model import scene
+from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from robot_sim.kinect import ArmGeometry, KinectScenario, KinectSim
 from robot_sim.kinect.receiver import min_jerk
 from services.tracker.errors import TrackerError

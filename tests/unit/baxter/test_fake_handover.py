@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from bus_schema import topics
-from robot_sim import scene as scene_layout
+from handover_model import scene as scene_layout
 from services.bridge.baxter.config import parse_baxter_config
 from services.bridge.baxter.fake import SERVICE_NAME, FakeBaxter, parse_fake_config
 from services.bridge.handover_backend import HandoverSimBackend

@@ -12,7 +12,7 @@ from robot_sim.contact.batch import chunk_receivers, run_batch
 from robot_sim.contact.config import SensorParams
 from robot_sim.contact.controllers import ConstantGrip, ReleaseAfter
 from robot_sim.contact.episode import run_episode, run_vectorised
-from robot_sim.contact.interfaces import Mode
+from handover_model.grip import Mode
 from robot_sim.contact.outcome import EpisodeTrace, OutcomeAccumulator, outcome_from_trace
 from robot_sim.contact.receiver import dropping, sample_behaviours, stack_receivers, taking
 

@@ -9,7 +9,7 @@ import pytest
 from robot_sim.contact.config import GRAVITY_M_S2, GripperParams, ObjectParams
 from robot_sim.contact.controllers import ConstantGrip, ReleaseAfter
 from robot_sim.contact.episode import run_episode
-from robot_sim.contact.interfaces import Mode
+from handover_model.grip import Mode
 from robot_sim.contact.receiver import absent, bumping, dropping, hesitating, taking
 
 from tests.unit.contact.helpers import StepGrip, quiet_config

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_sim.contact.interfaces import SensorSample
+from handover_model.grip import SensorSample
 
 
 def sample(time_s=0.0, fx=0.0, fy=0.0, ay=0.0, vx=0.0, vy=0.0, n=None):

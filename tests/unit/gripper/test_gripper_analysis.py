@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from robot_sim.contact.interfaces import Mode
+from handover_model.grip import Mode
 from robot_sim.thesis_model import step_model
 from services.studies.gripper import analysis as A
 from services.gripper.controllers import FS_PRESETS

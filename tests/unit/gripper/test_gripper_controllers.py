@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robot_sim.contact.interfaces import GripController, Mode
+from handover_model.grip import GripController, Mode
 from services.gripper.controllers import (
     CONTROLLER_NAMES,
     FS_PRESETS,

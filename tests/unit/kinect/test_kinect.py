@@ -7,7 +7,7 @@ import pytest
 
 from robot_sim.kinect.camera import KinectCamera, look_at_rotation
 from robot_sim.kinect.depth import DepthRenderer, kinect_depth_mm
-from robot_sim.kinect.shapes import Box, Capsule, ray_box, ray_capsule
+from handover_model.shapes import Box, Capsule, ray_box, ray_capsule
 from robot_sim.kinect.skeleton_model import HAND_INDEX, SkeletonErrorModel, SkeletonErrorParams
 from services.tracker.pointcloud import DepthFrame, backproject
 

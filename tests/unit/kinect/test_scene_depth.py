@@ -8,14 +8,14 @@ import copy
 import numpy as np
 import pytest
 
-from robot_sim import scene
-from robot_sim.baxter import RIGHT_ARM_HOME_RAD
+from handover_model import scene
+from handover_model.baxter import RIGHT_ARM_HOME_RAD
 from robot_sim.kinect import KinectScenario, KinectSim
 from robot_sim.kinect.block_cast import BlockCaster
 from robot_sim.kinect.camera import KinectCamera
 from robot_sim.kinect.depth import DepthRenderer, kinect_depth_mm
 from robot_sim.kinect.quantise import DepthQuantiser
-from robot_sim.kinect.shapes import Box, Capsule, ray_box, ray_capsule
+from handover_model.shapes import Box, Capsule, ray_box, ray_capsule
 
 HOME = np.array(RIGHT_ARM_HOME_RAD)
 

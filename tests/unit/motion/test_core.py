@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bus_schema.messages import MotionGoal, MotionStop
-from robot_sim import baxter, scene
+from handover_model import baxter, scene
 from services.motion.core import MotionController, arm_positions_from
 from services.motion.errors import MotionError
 from services.motion.ik import UPRIGHT_ROTATION, rotation_error_rad

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from robot_sim import baxter, scene
+from handover_model import baxter, scene
 from services.motion.errors import IkNoProgressError
 from services.motion.ik import UPRIGHT_ROTATION, rotation_error_rad
 

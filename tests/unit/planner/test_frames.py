@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from robot_sim import scene
+from handover_model import scene
 from services.planner.errors import PlannerError
 from services.planner.frames import TaskPlaneFrame
 

@@ -6,7 +6,7 @@ import pytest
 from bus_schema import topics as T
 from bus_schema.codec import decode, encode
 from bus_schema.messages import HumanState, TransferTarget
-from robot_sim import scene
+from handover_model import scene
 from services.planner.config import load_config
 from services.planner.core import (
     PlannerService,

@@ -1,10 +1,8 @@
-"""`handover-study`: the tracker studies end to end, bad input, and the import direction."""
+"""`handover-study`: the tracker studies end to end, and bad input."""
 
 from __future__ import annotations
 
-import ast
 import json
-from pathlib import Path
 
 import pytest
 
@@ -12,8 +10,6 @@ from bus_schema import topics as T
 from services.studies.cli import main as study_main
 from services.tracker.cli import main as tracker_main
 from services.tracker.replay import read_replay
-
-REPO = Path(__file__).resolve().parents[3]
 
 
 def test_record_writes_a_replay_that_the_tracker_reads_back(tmp_path, capsys):
@@ -60,27 +56,3 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_info:
         study_main([])
     assert exit_info.value.code == 2
-
-
-def _imported_modules(path: Path) -> set[str]:
-    names = set()
-    for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.Import):
-            names.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.module:
-            names.add(node.module)
-            names.update(f"{node.module}.{alias.name}" for alias in node.names)
-    return names
-
-
-def test_no_service_imports_the_studies():
-    """Studies import services, never the reverse: a service starts without matplotlib or the
-    benchmark's code, and a study can change without touching a running stack."""
-    offenders = []
-    for path in sorted((REPO / "services").rglob("*.py")):
-        if "studies" in path.relative_to(REPO / "services").parts:
-            continue
-        bad = sorted(n for n in _imported_modules(path) if n == "services.studies" or n.startswith("services.studies."))
-        if bad:
-            offenders.append(f"{path.relative_to(REPO)}: {bad}")
-    assert offenders == []

@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from robot_sim.contact.interfaces import Mode
+from handover_model.grip import Mode
 from robot_sim.thesis_model import ThesisModelError, ThesisScenario, simulate, step_model
 from services.gripper.controllers import make_controller
 

@@ -15,7 +15,7 @@ from typing import Literal
 import numpy as np
 
 from bus_schema.messages import Skeleton
-from robot_sim.kinect import receiver as anthropometry
+from handover_model import body as anthropometry
 from services.tracker.body import LEG_RATIO, REQUIRED_JOINTS, BodyDimensions
 from services.tracker.config import TrackerConfig
 from services.tracker.core import TORSO_MEDIAN_FRAMES, SkeletonFrame
@@ -100,11 +100,11 @@ class ReferenceBodyDimensionEstimator:
         legs = thigh + shank
         posture: Literal["standing", "sitting"] = "standing" if vertical > 0.5 else "sitting"
         if posture == "standing":
-            height = head_h / anthropometry.HEAD_CENTRE_HEIGHT_RATIO
+            height = head_h / anthropometry.HEAD_JOINT_HEIGHT_FRACTION
         else:
-            trunk_ratio = anthropometry.SHOULDER_HEIGHT_RATIO - anthropometry.HIP_HEIGHT_RATIO
+            trunk_ratio = anthropometry.SHOULDER_HEIGHT_FRACTION - anthropometry.HIP_HEIGHT_FRACTION
             height = 0.5 * (legs / LEG_RATIO + trunk / trunk_ratio)
-        arm_span = span_no_hands + 2.0 * anthropometry.HAND_TIP_RATIO * height
+        arm_span = span_no_hands + 2.0 * anthropometry.AVERAGE_UPPER_LIMB.palm_centre_to_fingertip_m * height
         return BodyDimensions(
             height_m=float(np.clip(height, 0.0, 3.0)),
             arm_span_m=float(np.clip(arm_span, 0.0, 3.5)),

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from bus_schema.messages import SKELETON_JOINTS
-from robot_sim import scene
+from handover_model import scene
 from robot_sim.kinect.receiver import BodySize, ReceiverBody
 from robot_sim.kinect.skeleton_model import SkeletonErrorModel, SkeletonErrorParams
 from services.tracker.body import BodyDimensionEstimator

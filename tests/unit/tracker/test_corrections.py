@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from robot_sim.kinect.shapes import Capsule
+from handover_model.shapes import Capsule
 from services.tracker.corrections import ProximityFilter, lag_correct, robot_point_mask
 
 

@@ -14,7 +14,7 @@ from collections.abc import Callable
 import cv2
 import numpy as np
 
-from robot_sim.kinect.shapes import Capsule
+from handover_model.shapes import Capsule
 from services.tracker.core import TrackerPipeline
 from services.tracker.corrections import points_in_box, robot_point_mask
 from services.tracker.objects import HEIGHT_BIN_M, PLANE_INLIER_M, ObjectDetection, TablePlane

@@ -1,8 +1,8 @@
-"""Stable interfaces of the contact simulator: sensor sample, grip controller, modes.
+"""The grip controller's interface: sensor sample, grip controller, modes (a shared contract).
 
-Other packages (the gripper service's controllers, the thesis model mode, the bridge's sim
-backend) import these names; they do not change without a note in the changelog of this
-package.
+The gripper service's controllers implement it; the contact simulator, the thesis model mode
+and the bridge's sim backend run controllers through it. These names do not change without a
+note in the changelog.
 
 Frames and signs (DESIGN §5, thesis Fig. 15): the *gripper frame* of the transfer loop has
 x along the pull, toward the receiver, and y DOWN. A positive `accel_y_m_s2` means the object

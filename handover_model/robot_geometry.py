@@ -2,7 +2,7 @@
 
 Used by the simulated Kinect to draw the robot into the depth image and by the tracker to
 remove the robot's own points from the cloud, so both agree on the same geometry. Positions
-come from pinocchio forward kinematics of `robot_sim.baxter.arm_model()` (`base` frame,
+come from pinocchio forward kinematics of `handover_model.baxter.arm_model()` (`base` frame,
 metres). The torso is a fixed capsule; the left arm is not drawn.
 """
 
@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from robot_sim.baxter import TOOL_FRAME, BaxterArmModel, arm_model
-from robot_sim.kinect.shapes import Capsule
+from handover_model.baxter import TOOL_FRAME, BaxterArmModel, arm_model
+from handover_model.shapes import Capsule
 
 #: (from frame, to frame, radius m): the right arm's links, shoulder to fingertips.
 ARM_LINK_CAPSULES: tuple[tuple[str, str, float], ...] = (
