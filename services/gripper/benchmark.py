@@ -46,7 +46,7 @@ from services.gripper.attribution import (
     paired_overshoot,
     run_attributed,
 )
-from services.gripper.controllers import CONTROLLER_NAMES, make_controller
+from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
 from services.gripper.episodes import BEHAVIOUR_NAMES, EpisodeDistribution, sample_chunk
 from services.gripper.errors import GripperError
 

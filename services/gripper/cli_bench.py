@@ -28,7 +28,7 @@ from services.gripper.benchmark import (
     write_csv,
     write_plots,
 )
-from services.gripper.controllers import CONTROLLER_NAMES, make_controller
+from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
 from services.runtime.cli import HelpFormatter, one_line_parser
 

@@ -9,7 +9,7 @@ import pytest
 from services.gripper import analysis as A
 from services.gripper import cli_reproduce, reproduce
 from services.gripper.cli_analysis import main
-from services.gripper.controllers import FS_PRESETS
+from services.gripper.controllers.fail_safe import FS_PRESETS
 
 
 def test_fst_cli_prints_the_library_value(capsys):
