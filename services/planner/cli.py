@@ -17,9 +17,10 @@ from pathlib import Path
 
 from services.planner.anthropometrics import FIGURE3_ACTOR, ROBOT_AS_HUMAN, BodyDimensions
 from services.planner.config import PlannerConfig, load_config
-from services.planner.core import DyadGeometry, TransferPlan, plan_transfer, timing_for
+from services.planner.core import timing_for
 from services.planner.errors import PlannerError
 from services.planner.experiment import EMPTY_CUP_KG, FULL_CUP_KG, four_positions, heavy_light_positions
+from services.planner.transfer_plan import DyadGeometry, TransferPlan, plan_transfer
 from services.runtime import ProfileError, base_parser, load_profile, run_main
 
 NAMED_BODIES = {"robot": ROBOT_AS_HUMAN, "figure3": FIGURE3_ACTOR}

@@ -59,7 +59,7 @@ import numpy as np
 
 from robot_sim import scene
 from services.planner.anthropometrics import BodyDimensions
-from services.planner.djt import DJTSettings
+from services.planner.djt.settings import DJTSettings
 from services.planner.errors import PlannerError
 from services.planner.frames import DEFAULT_ORIGIN_BASE_M, TaskPlaneFrame
 from services.planner.reach_timing import (

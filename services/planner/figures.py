@@ -23,8 +23,9 @@ from matplotlib.axes import Axes  # noqa: E402
 
 from robot_sim import scene  # noqa: E402
 from services.planner.anthropometrics import FIGURE3_ACTOR, ROBOT_AS_HUMAN  # noqa: E402
-from services.planner.core import DyadGeometry, TransferPlan, plan_transfer  # noqa: E402
-from services.planner.djt import DJTSettings, elbow_position  # noqa: E402
+from services.planner.transfer_plan import DyadGeometry, TransferPlan, plan_transfer  # noqa: E402
+from services.planner.djt.arms import elbow_position  # noqa: E402
+from services.planner.djt.settings import DJTSettings  # noqa: E402
 from services.planner.experiment import EMPTY_CUP_KG, four_positions  # noqa: E402
 
 
