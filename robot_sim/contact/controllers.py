@@ -1,5 +1,5 @@
 """Minimal grip-force laws for tests and examples (the real fail-safe controllers live in
-`services/gripper/controllers.py` and follow the same `GripController` protocol).
+`services/gripper/controllers/` and follow the same `GripController` protocol).
 
 All laws step arrays of shape (n_episodes,), so one object serves one episode or a batch.
 """

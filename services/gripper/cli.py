@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from services.gripper.controllers import controller_summaries
+from services.gripper.controllers.registry import controller_summaries
 from services.gripper.errors import GripperError
 from services.runtime import ServiceError, base_parser, load_profile, run_main
 

@@ -3,7 +3,7 @@
 Example (deploy/sim.toml)::
 
     [services.gripper.config]
-    controller = "FS1"          # any name of services.gripper.controllers.CONTROLLER_NAMES
+    controller = "FS1"          # any name of services.gripper.controllers.registry.CONTROLLER_NAMES
     rate_hz = 100.0             # thesis: 10, 25 or 100 Hz; up to 1 kHz
     wrench_timeout_s = 0.05     # wrist wrench older than this: hold, never open
     motion_timeout_s = 0.05     # optical motion older than this: hold, never open
@@ -16,7 +16,8 @@ from typing import Annotated, Any
 import msgspec
 from msgspec import Meta
 
-from services.gripper.controllers import ABSOLUTE_MAX_GRIP_FORCE_N, CONTROLLER_NAMES
+from services.gripper.controllers.common import ABSOLUTE_MAX_GRIP_FORCE_N
+from services.gripper.controllers.registry import CONTROLLER_NAMES
 from services.gripper.errors import GripperConfigError
 
 #: Control rates the thesis uses (Hz): the system's object-transfer loop (10 Hz, Fig. 30),

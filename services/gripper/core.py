@@ -31,7 +31,8 @@ import numpy as np
 
 from handover_model.grip import Mode, SensorSample
 from services.gripper.config import GripperConfig
-from services.gripper.controllers import ModeReportingController, make_controller
+from services.gripper.controllers.common import ModeReportingController
+from services.gripper.controllers.registry import make_controller
 from services.gripper.errors import GripperError
 from services.gripper.spring import GripSpring
 from services.runtime.repeat import HOLD_REPEAT_S

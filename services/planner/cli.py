@@ -14,7 +14,7 @@ import argparse
 import json
 from pathlib import Path
 
-from services.planner.core import TransferPlan
+from services.planner.transfer_plan import TransferPlan
 from services.planner.errors import PlannerError
 from services.planner.scene_args import (
     EMPTY_CUP_KG,

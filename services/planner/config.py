@@ -60,7 +60,7 @@ import numpy as np
 from handover_model import scene
 from handover_model.body import MAX_LEAN_FRACTION
 from services.planner.anthropometrics import BodyDimensions
-from services.planner.djt import DJTSettings
+from services.planner.djt.settings import DJTSettings
 from services.planner.errors import PlannerError
 from services.planner.frames import DEFAULT_ORIGIN_BASE_M, TaskPlaneFrame
 from services.planner.reach_timing import (

@@ -10,8 +10,8 @@ import numpy as np
 from matplotlib.axes import Axes
 
 from handover_model import scene
-from services.planner.core import TransferPlan
-from services.planner.djt import elbow_position
+from services.planner.transfer_plan import TransferPlan
+from services.planner.djt.arms import elbow_position
 
 
 def draw_plan(ax: Axes, plan: TransferPlan, title: str, show_colorbar: bool = True) -> None:

@@ -12,7 +12,8 @@ from dataclasses import replace
 
 from services.planner.anthropometrics import FIGURE3_ACTOR, ROBOT_AS_HUMAN, BodyDimensions
 from services.planner.config import PlannerConfig, load_config
-from services.planner.core import DyadGeometry, TransferPlan, plan_transfer, timing_for
+from services.planner.core import timing_for
+from services.planner.transfer_plan import DyadGeometry, TransferPlan, plan_transfer
 from services.planner.errors import PlannerError
 from services.runtime import ProfileError, load_profile
 

@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from handover_model.grip import SensorSample
-from services.gripper.controllers import FS_PRESETS, fail_safe_law, make_controller
+from services.gripper.controllers.fail_safe import FS_PRESETS, fail_safe_law
+from services.gripper.controllers.registry import make_controller
 
 OUT = Path("out/bench/gripper.json")
 

@@ -13,8 +13,10 @@ import numpy as np
 import pytest
 
 from services.planner.anthropometrics import FIGURE3_ACTOR, ROBOT_AS_HUMAN
-from services.planner.core import DyadGeometry, build_dyad, plan_transfer
-from services.planner.djt import DJTSettings, djt_cost, optimise
+from services.planner.djt.cost import djt_cost
+from services.planner.djt.optimum import optimise
+from services.planner.djt.settings import DJTSettings
+from services.planner.transfer_plan import DyadGeometry, build_dyad, plan_transfer
 from tests.bench._report import save
 
 pytestmark = pytest.mark.bench

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq
 
-from services.gripper.controllers import FailSafeParams
+from services.gripper.controllers.fail_safe import FailSafeParams
 from services.gripper.errors import GripperError
 
 STANDARD_GRAVITY_M_S2 = 9.81

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from services.gripper.controllers import FS_PRESETS, FailSafeParams
+from services.gripper.controllers.fail_safe import FS_PRESETS, FailSafeParams
 from services.gripper.errors import GripperError
 from services.studies.gripper import analysis
 

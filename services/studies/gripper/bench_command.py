@@ -14,7 +14,7 @@ import logging
 import sys
 from pathlib import Path
 
-from services.gripper.controllers import CONTROLLER_NAMES, make_controller
+from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
 from services.studies.gripper.benchmark import (
     DEFAULT_CONTROLLERS,

@@ -38,7 +38,7 @@ from scipy import stats
 from tqdm import tqdm
 
 from robot_sim.contact.outcome import BatchOutcome
-from services.gripper.controllers import CONTROLLER_NAMES, make_controller
+from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
 from services.studies.gripper.attribution import (
     DropClass,

@@ -24,7 +24,8 @@ import numpy as np
 
 from handover_model.grip import Mode
 from robot_sim.thesis_model import ThesisRun, ThesisScenario, simulate
-from services.gripper.controllers import FS_PRESETS, make_controller
+from services.gripper.controllers.fail_safe import FS_PRESETS
+from services.gripper.controllers.registry import make_controller
 from services.gripper.errors import GripperError
 from services.studies.gripper import analysis
 

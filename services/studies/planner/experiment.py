@@ -16,8 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from services.planner.core import TransferPlan
-from services.planner.djt import DJTSettings, Dyad, djt_cost
+from services.planner.transfer_plan import TransferPlan
+from services.planner.djt.arms import Dyad
+from services.planner.djt.cost import djt_cost
+from services.planner.djt.settings import DJTSettings
 from services.planner.frames import TaskPlaneFrame
 
 OFFSET_M = 0.15

@@ -11,7 +11,7 @@ import pytest
 from handover_model.grip import Mode
 from robot_sim.thesis_model import step_model
 from services.studies.gripper import analysis as A
-from services.gripper.controllers import FS_PRESETS
+from services.gripper.controllers.fail_safe import FS_PRESETS
 from services.gripper.errors import GripperError
 
 PLANT = A.TABLE_IV_PLANT

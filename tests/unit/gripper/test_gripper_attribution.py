@@ -21,7 +21,7 @@ from services.studies.gripper.attribution import (
     paired_overshoot,
     run_attributed,
 )
-from services.gripper.controllers import make_controller
+from services.gripper.controllers.registry import make_controller
 from services.studies.gripper.episodes import EpisodeDistribution, sample_chunk
 from tests.unit.gripper.helpers import sample
 

@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from services.gripper.controllers import FS_PRESETS
+from services.gripper.controllers.fail_safe import FS_PRESETS
 from services.studies.cli import main
 from services.studies.gripper import analysis as A
 from services.studies.gripper import reproduce

@@ -6,20 +6,14 @@ import numpy as np
 import pytest
 
 from handover_model.grip import GripController, Mode
-from services.gripper.controllers import (
-    CONTROLLER_NAMES,
-    FS_PRESETS,
-    DisplacementRelease,
-    FailSafeController,
-    FailSafeParams,
-    ForceThresholdRelease,
+from services.gripper.controllers.baselines import DisplacementRelease, ForceThresholdRelease, TimedRelease
+from services.gripper.controllers.fail_safe import FS_PRESETS, FailSafeController, FailSafeParams, fail_safe_law
+from services.gripper.controllers.human_inspired import (
     HumanInspiredController,
     HumanInspiredParams,
-    TimedRelease,
-    fail_safe_law,
     human_inspired_grip_n,
-    make_controller,
 )
+from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
 from tests.unit.gripper.helpers import sample
 

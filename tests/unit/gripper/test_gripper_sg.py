@@ -9,7 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from services.gripper.controllers import SlipGuardController, SlipGuardParams, make_controller
+from services.gripper.controllers.registry import make_controller
+from services.gripper.controllers.slip_guard import SlipGuardController, SlipGuardParams
 from services.gripper.errors import GripperError
 from tests.unit.gripper.helpers import sample
 

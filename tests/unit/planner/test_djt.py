@@ -4,19 +4,18 @@ import numpy as np
 import pytest
 
 from services.planner.anthropometrics import FIGURE3_ACTOR, BodyDimensions, PlanarArm, planar_arm
-from services.planner.core import DyadGeometry, build_dyad
-from services.planner.djt import (
+from services.planner.djt.arms import (
     Actor,
-    DJTSettings,
-    djt_cost,
     forward_kinematics,
     gravity_torques,
     inverse_kinematics,
     object_jacobian_torques,
-    optimise,
-    search_bounds,
 )
+from services.planner.djt.cost import djt_cost, search_bounds
+from services.planner.djt.optimum import optimise
+from services.planner.djt.settings import DJTSettings
 from services.planner.errors import PlannerError
+from services.planner.transfer_plan import DyadGeometry, build_dyad
 
 G = 9.80665
 ARM = PlanarArm(

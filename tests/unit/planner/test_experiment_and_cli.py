@@ -5,7 +5,7 @@ import pytest
 
 from services.planner.anthropometrics import FIGURE3_ACTOR, ROBOT_AS_HUMAN
 from services.planner.cli import main
-from services.planner.core import DyadGeometry, plan_transfer
+from services.planner.transfer_plan import DyadGeometry, plan_transfer
 from services.studies.cli import main as study_main
 from services.studies.planner.experiment import four_positions, heavy_light_positions
 

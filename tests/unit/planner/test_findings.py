@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from services.planner.anthropometrics import FIGURE3_ACTOR, ROBOT_AS_HUMAN, BodyDimensions
-from services.planner.core import DyadGeometry, plan_transfer
-from services.planner.djt import UPPER_ARM_UNCAPPED_ANGLE_RAD, DJTSettings
+from services.planner.transfer_plan import DyadGeometry, plan_transfer
+from services.planner.djt.settings import DJTSettings, UPPER_ARM_UNCAPPED_ANGLE_RAD
 from services.planner.scene_args import EMPTY_CUP_KG, FULL_CUP_KG
 
 A = FIGURE3_ACTOR

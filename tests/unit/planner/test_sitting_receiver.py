@@ -22,7 +22,7 @@ from robot_sim.kinect.skeleton_model import SkeletonErrorModel, SkeletonErrorPar
 from services.planner.anthropometrics import BodyDimensions
 from services.planner.config import load_config
 from services.planner.core import PlannerService, ReceiverInput, plan_for_receiver
-from services.planner.djt import djt_cost
+from services.planner.djt.cost import djt_cost
 from services.planner.errors import PlannerError
 from services.tracker.config import TrackerConfig
 from services.tracker.core import SkeletonFrame, TrackerPipeline

@@ -10,7 +10,7 @@ import pytest
 
 from handover_model.grip import Mode
 from robot_sim.thesis_model import ThesisModelError, ThesisScenario, simulate, step_model
-from services.gripper.controllers import make_controller
+from services.gripper.controllers.registry import make_controller
 
 
 def test_grasp_case_by_hand():
