@@ -8,8 +8,9 @@ import time
 from pathlib import Path
 
 from services.launcher.checks import check_niced_services_are_report_only
-from services.launcher.core import check_one_simulated_kinect
-from services.launcher.node import JOBS, LaunchOptions, Launcher, LauncherUsageError
+from services.launcher.core import JOBS, LaunchOptions, check_one_simulated_kinect
+from services.launcher.errors import LauncherUsageError
+from services.launcher.node import Launcher
 from services.launcher.processes import DEFAULT_OUTPUT_QUEUE_LINES, stdout_outlet
 from services.runtime import base_parser, load_profile_file, run_main
 from services.runtime.errors import ProfileError

@@ -1,4 +1,4 @@
-"""Pure logic of `handover-up`: start order, shutdown order, restart decisions, commands.
+"""Pure logic of `handover-up`: start order, shutdown order, restart decisions, commands, exit codes.
 
 No processes are started here; `services/launcher/processes.py` does that.
 """
@@ -18,6 +18,10 @@ from services.runtime.errors import ProfileError
 from services.runtime.profile import Profile, ServiceSpec
 
 RECORDER = "recorder"
+#: Exit codes: the job succeeded; a service or the job failed; bad input (profile, arguments,
+#: port in use); interrupted by Ctrl-C/SIGTERM.
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
+JOBS = ("handover", "demo", "check", "none")
 
 
 def start_order(specs: Sequence[ServiceSpec]) -> list[ServiceSpec]:
@@ -31,6 +35,39 @@ def shutdown_order(specs: Sequence[ServiceSpec]) -> list[ServiceSpec]:
     """Reverse start order, except the recorder goes last (it records the shutdown)."""
     ordered = list(reversed(start_order(specs)))
     return sorted(ordered, key=lambda s: 1 if s.name == RECORDER else 0)
+
+
+def job_services(specs: Sequence[ServiceSpec], job: str) -> list[ServiceSpec]:
+    """The services `job` runs, in start order: every enabled one, but no supervisor for the
+    ``demo`` job (the demo drives the arm itself; a supervisor running episodes would fight it)."""
+    ordered = start_order(specs)
+    if job == "demo":
+        return [spec for spec in ordered if spec.name != "supervisor"]
+    return ordered
+
+
+def scene_service(specs: Sequence[ServiceSpec]) -> str:
+    """The service that simulates the scene (it takes ``--receiver``): the fake Baxter when the
+    services include one, else the bridge."""
+    return "fake_baxter" if any(s.name == "fake_baxter" for s in specs) else "bridge"
+
+
+def final_exit_code(job_code: int, failure: str | None, interrupted: bool) -> int:
+    """The launcher's exit code: the job's, except that a job that succeeded while a service
+    failed (`failure`) exits `EXIT_FAILED`, and one that succeeded after a stop was asked
+    (`interrupted`) exits `EXIT_INTERRUPTED`."""
+    if failure and job_code == EXIT_OK:
+        return EXIT_FAILED
+    if interrupted and job_code == EXIT_OK:
+        return EXIT_INTERRUPTED
+    return job_code
+
+
+def bus_port_message(endpoint: str, error_text: str) -> str:
+    """The one line for a bus the launcher cannot host on `endpoint`, with Zenoh's `error_text`
+    without its Rust source locations (`` at /…/file.rs:61.``)."""
+    reason = re.sub(r" at /\S+\.rs:\d+\.?", "", error_text).strip()
+    return f"cannot host the bus on {endpoint} (is another handover-up running? use --port auto): {reason}"
 
 
 @dataclass

@@ -22,61 +22,43 @@ arguments, port in use); 130 interrupted by Ctrl-C/SIGTERM.
 
 from __future__ import annotations
 
-import json
 import os
-import re
 import signal
 import threading
 import time
-from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
+from services.launcher.bus_host import host_bus
 from services.launcher.core import (
+    EXIT_FAILED,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    JOBS,
     RECORDER,
     LaunchOptions,
     decide_restart,
     describe_exit,
+    final_exit_code,
     format_startup_times,
+    job_services,
     logs_dir,
     recording_path,
-    router_zenoh_overrides,
+    scene_service,
     service_command,
     shutdown_order,
-    start_order,
 )
+from services.launcher.errors import LauncherError
+from services.launcher.jobs import demo_job, handover_job, run_on_bus
 from services.launcher.logfiles import LogFiles, own_line
-from services.launcher.logins import RunLogins, bus_line, child_env, remove_logins, start_run_logins
+from services.launcher.logins import RunLogins, bus_line, child_env
+from services.launcher.precompile import precompile_stack
 from services.launcher.processes import Child, RouterProcess, emit, stdout_outlet
-from services.runtime import LivelinessWatcher, Profile, ServiceNode, open_session
-from services.runtime.errors import BusError, ServiceError
-from services.runtime.zenoh_config import zenoh_config_dict
+from services.runtime import LivelinessWatcher, Profile
 from services.runtime.sched import ROUTER_PID_ENV
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INTERRUPTED = 0, 1, 2, 130
-JOBS = ("handover", "demo", "check", "none")
 #: At exit, how long the launcher waits for a blocked stdout to take its last lines, s.
 EXIT_FLUSH_S = 10.0
-
-
-class LauncherError(ServiceError):
-    """handover-up could not start the stack (the message names the service or setting)."""
-
-
-class LauncherUsageError(LauncherError):
-    """A command-line value handover-up cannot use: exit 2 before anything starts."""
-
-    bad_input = True
-
-
-class BusPortError(LauncherError):
-    """The bus endpoint cannot be hosted (port in use, address not local): a usage error."""
-
-    bad_input = True
-
-
-def _without_source_locations(text: str) -> str:
-    """Zenoh's error text without its Rust source locations (`` at /…/file.rs:61.``)."""
-    return re.sub(r" at /\S+\.rs:\d+\.?", "", text).strip()
 
 
 def say(text: str, console: bool = True) -> None:
@@ -87,23 +69,6 @@ def say(text: str, console: bool = True) -> None:
         emit(f"[launcher] {text}\n")
 
 
-#: The stack's own packages (an editable install is not byte-compiled by pip).
-STACK_PACKAGES = ("bus_schema", "handover_model", "robot_sim", "services")
-
-
-def precompile_stack() -> None:
-    """Byte-compile the stack's packages once, before the services start: on a fresh checkout
-    eight processes would otherwise each compile the same modules at once and starve the
-    first episode of CPU. With up-to-date `.pyc` files this is a stat per file."""
-    import compileall
-    import importlib.util
-
-    for name in STACK_PACKAGES:
-        spec = importlib.util.find_spec(name)
-        for location in (spec.submodule_search_locations or []) if spec else []:
-            compileall.compile_dir(location, quiet=1, workers=1)
-
-
 class Launcher:
     """Runs one stack from a profile (see module docstring)."""
 
@@ -112,10 +77,7 @@ class Launcher:
             raise LauncherError(f"unknown job {options.job!r} (choose from {', '.join(JOBS)})")
         self.profile = profile
         self.options = options
-        self.specs = start_order(profile.services)
-        if options.job == "demo":
-            # The demo drives the arm itself; a supervisor running episodes would fight it.
-            self.specs = [spec for spec in self.specs if spec.name != "supervisor"]
+        self.specs = job_services(profile.services, options.job)
         if not self.specs:
             raise LauncherError(f"profile {profile.path} enables no service")
         self.width = max(len("launcher"), *(len(s.name) for s in self.specs))
@@ -131,6 +93,8 @@ class Launcher:
         self.failure: str | None = None
         self.episode_running = False
         self.shutting_down = False
+        self.interrupted = False
+        self._previous_handlers: dict[signal.Signals, Any] = {}  # what signal.signal returned
         self._lock = threading.Lock()
 
     # ------------------------------------------------------------------ children
@@ -138,8 +102,7 @@ class Launcher:
         if name == RECORDER:
             self.recording = recording_path(self.options.recording_dir, self.options.run_id, attempt)
             return ["--output", str(self.recording)]
-        scene = "fake_baxter" if any(s.name == "fake_baxter" for s in self.specs) else "bridge"
-        return self.options.service_args(name, scene)
+        return self.options.service_args(name, scene_service(self.specs))
 
     def _start(self, name: str) -> Child:
         spec = next(s for s in self.specs if s.name == name)
@@ -234,64 +197,19 @@ class Launcher:
 
     # ------------------------------------------------------------------ main
     def run(self) -> int:
-        def on_signal(signum: int, _frame: object) -> None:
-            if not self.stop_requested.is_set():
-                say(f"{signal.Signals(signum).name} received: shutting down")
-            self.interrupted = True
-            self.stop_requested.set()
-
+        """Host the bus, start the services, run the job, shut down; the exit code."""
         self.interrupted = False
-        previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        self._previous_handlers = {s: signal.signal(s, self._on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
         t0 = time.monotonic()
         precompile_stack()
-        opts = self.options
-        self.logins, self.bus_profile, acl = start_run_logins(
-            self.profile, [s.name for s in self.specs], opts.recording_dir, opts.run_id, opts.job)
-        router: RouterProcess | None = None
-        try:  # from here on, nothing may leave the run's logins behind
-            router_profile = replace(self.bus_profile, access_control=acl,
-                                     zenoh_overrides=router_zenoh_overrides(self.profile.zenoh_overrides))
-            router = RouterProcess(json.dumps(zenoh_config_dict(router_profile, "router")), self.width)
-            router.start()
-            self.router_pid = router.pid
-            session = open_session(self.bus_profile, "client", timeout_s=5.0, user="launcher")
-        except BaseException as exc:
-            for s, h in previous.items():
-                signal.signal(s, h)
-            if router is not None:
-                router.stop()
-            remove_logins(self.logins)
-            if not isinstance(exc, (BusError, RuntimeError)):
-                raise
-            raise BusPortError(
-                f"cannot host the bus on {self.profile.endpoint} (is another handover-up running? "
-                f"use --port auto): {_without_source_locations(str(exc))}"
-            ) from None
-        watcher = LivelinessWatcher(session, self.profile.prefix)
+        bus = host_bus(self.profile, [s.name for s in self.specs], self.options, self.width,
+                       on_failure=self._restore_signal_handlers)
+        self.logins, self.bus_profile, self.router_pid = bus.logins, bus.bus_profile, bus.router.pid
+        watcher = LivelinessWatcher(bus.session, self.profile.prefix)
         monitor: threading.Thread | None = None
         code = EXIT_FAILED
         try:
-            self._open_logs(router)
-            say(bus_line(self.profile, router.pid, self.logins.directory if self.logins else None))
-            if self.logs.error is None:
-                say(f"logs of every service: {self.logs.directory}/"
-                    + ("" if self.verbose else " (--verbose prints them here too)"))
-            for spec in self.specs:
-                child = self._start(spec.name)
-                effective = max(spec.nice, os.getpriority(os.PRIO_PROCESS, 0))  # never below the launcher's
-                niceness = f" at nice {effective}" if effective else ""
-                say(f"started {spec.name} (pid {child.pid}){niceness}: python -m {spec.module}")
-                if spec.name == RECORDER:
-                    # Nothing may be published before the recorder listens.
-                    self._wait_alive(watcher, {RECORDER})
-            alive_s = self._wait_alive(watcher)
-            say(f"all {len(self.specs)} services alive {alive_s:.2f} s after start "
-                f"({time.monotonic() - t0:.2f} s after launch)")
-            say("start-up, spawn → alive: " + format_startup_times(
-                {n: c.started_monotonic for n, c in self.children.items()}, watcher.events()))
-            self.alive_after_s = time.monotonic() - t0
-            monitor = threading.Thread(target=self._monitor, args=(watcher,), name="monitor", daemon=True)
-            monitor.start()
+            monitor = self._start_services(bus.router, watcher, t0)
             code = self._run_job()
         except KeyboardInterrupt:
             code = EXIT_INTERRUPTED
@@ -304,15 +222,49 @@ class Launcher:
                 monitor.join(timeout=2.0)
             self._shutdown()
             watcher.undeclare()
-            session.close()
-            router.stop()
-            remove_logins(self.logins)
-            for s, h in previous.items():
-                signal.signal(s, h)
-        if self.failure and code == EXIT_OK:
-            code = EXIT_FAILED
-        if self.interrupted and code == EXIT_OK:
-            code = EXIT_INTERRUPTED
+            bus.close()
+            self._restore_signal_handlers()
+        return self._finish(code)
+
+    def _on_signal(self, signum: int, _frame: object) -> None:
+        if not self.stop_requested.is_set():
+            say(f"{signal.Signals(signum).name} received: shutting down")
+        self.interrupted = True
+        self.stop_requested.set()
+
+    def _restore_signal_handlers(self) -> None:
+        for signum, handler in self._previous_handlers.items():
+            signal.signal(signum, handler)
+
+    def _start_services(self, router: RouterProcess, watcher: LivelinessWatcher, t0: float) -> threading.Thread:
+        """Open the logs, start every service (the recorder alive first), wait until all are
+        alive (`t0`: the launch, monotonic s); the monitor thread, started."""
+        self._open_logs(router)
+        say(bus_line(self.profile, router.pid, self.logins.directory if self.logins else None))
+        if self.logs.error is None:
+            say(f"logs of every service: {self.logs.directory}/"
+                + ("" if self.verbose else " (--verbose prints them here too)"))
+        for spec in self.specs:
+            child = self._start(spec.name)
+            effective = max(spec.nice, os.getpriority(os.PRIO_PROCESS, 0))  # never below the launcher's
+            niceness = f" at nice {effective}" if effective else ""
+            say(f"started {spec.name} (pid {child.pid}){niceness}: python -m {spec.module}")
+            if spec.name == RECORDER:
+                # Nothing may be published before the recorder listens.
+                self._wait_alive(watcher, {RECORDER})
+        alive_s = self._wait_alive(watcher)
+        say(f"all {len(self.specs)} services alive {alive_s:.2f} s after start "
+            f"({time.monotonic() - t0:.2f} s after launch)")
+        say("start-up, spawn → alive: " + format_startup_times(
+            {n: c.started_monotonic for n, c in self.children.items()}, watcher.events()))
+        self.alive_after_s = time.monotonic() - t0
+        monitor = threading.Thread(target=self._monitor, args=(watcher,), name="monitor", daemon=True)
+        monitor.start()
+        return monitor
+
+    def _finish(self, job_code: int) -> int:
+        """Say where the recording is and the exit code; flush the output; the exit code."""
+        code = final_exit_code(job_code, self.failure, self.interrupted)
         if self.recording is not None and self.recording.exists():
             say(f"recording: {self.recording}  (open it with: rerun {self.recording})")
         say(f"exit {code}" + (f": {self.failure}" if self.failure else ""))
@@ -320,6 +272,7 @@ class Launcher:
         self.logs.close()
         return code
 
+    # ------------------------------------------------------------------ jobs
     def _abort_reason(self) -> str | None:
         if self.failure:
             return self.failure
@@ -340,60 +293,32 @@ class Launcher:
         """Processes a supervisor state passes through to this watch: the router and this one."""
         return tuple(pid for pid in (self.router_pid, os.getpid()) if pid)
 
-    def _run_handover(self) -> int:
-        from services.launcher.handover_job import run_handover_job
-
-        if not any(s.name == "supervisor" for s in self.specs):
-            raise LauncherError("the handover job needs a supervisor service in the profile "
-                                "([services.supervisor]); use --job demo or check without one")
-        episodes = self._episodes()
-        self.episode_running = True
-        with ServiceNode("launcher", self.bus_profile, install_signal_handlers=False) as node:
-            stopper = threading.Thread(target=lambda: (self.stop_requested.wait(), node.request_stop()),
-                                       daemon=True)
-            stopper.start()
-            say(f"job: handover ({episodes or 'unlimited'} episode{'s' if episodes != 1 else ''})")
-            result = run_handover_job(node, episodes, self._abort_reason, say, self.options.episode_timeout_s,
-                                      None if self.profile.allow_non_loopback else self._supervisor_pid,
-                                      self._delivery_pids())
-        self.episode_running = False
-        if self.interrupted:
-            return EXIT_INTERRUPTED
-        if not result.ok:
-            if not self.failure:
-                self._fail(result.message)
-            return EXIT_FAILED
-        outcomes = ", ".join(r.summary.outcome for r in result.reports)
-        say(f"summary: {len(result.reports)} episode(s): {outcomes}; object never dropped")
-        return EXIT_OK
-
     def _run_job(self) -> int:
         job = self.options.job
         if job == "check":
             return EXIT_OK
-        if job == "handover":
-            return self._run_handover()
         if job == "none":
             say("stack running; press Ctrl-C to stop")
             self.stop_requested.wait()
             return EXIT_INTERRUPTED if self.interrupted else (EXIT_FAILED if self.failure else EXIT_OK)
-        from services.launcher.demo import run_demo
-
-        self.episode_running = True
-        with ServiceNode("launcher", self.bus_profile, install_signal_handlers=False) as node:
-            stopper = threading.Thread(target=lambda: (self.stop_requested.wait(), node.request_stop()),
-                                       daemon=True)
-            stopper.start()
-            say("job: joint-space demo")
-            result = run_demo(node, self._abort_reason)
+        if job == "handover":
+            if not any(s.name == "supervisor" for s in self.specs):
+                raise LauncherError("the handover job needs a supervisor service in the profile "
+                                    "([services.supervisor]); use --job demo or check without one")
+            on_bus = handover_job(self._episodes(), self.options.episode_timeout_s, self._abort_reason, say,
+                                  None if self.profile.allow_non_loopback else self._supervisor_pid,
+                                  self._delivery_pids())
+        else:
+            on_bus = demo_job(self._abort_reason, say)
+        self.episode_running = True  # no safety service is restarted from here on
+        outcome = run_on_bus(self.bus_profile, self.stop_requested, on_bus)
         self.episode_running = False
         if self.interrupted:
             return EXIT_INTERRUPTED
-        if not result.ok:
+        if not outcome.ok:
             if not self.failure:
-                self._fail(f"demo failed: {result.message}")
+                self._fail(outcome.failure)
             return EXIT_FAILED
-        say("summary:")
-        for line in result.lines:
-            say("  " + line)
+        for line in outcome.summary:
+            say(line)
         return EXIT_OK

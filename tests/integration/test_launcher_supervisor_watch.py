@@ -9,7 +9,8 @@ import threading
 import time
 
 from bus_schema import topics
-from services.launcher.handover_job import SUPERVISOR_SILENT_S, run_handover_job
+from services.launcher.handover_job import run_handover_job
+from services.launcher.supervisor_silence import SUPERVISOR_SILENT_S
 from services.runtime.testing import wait_until
 
 

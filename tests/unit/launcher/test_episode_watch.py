@@ -1,11 +1,11 @@
-"""The handover job's reading of the episodes (services/launcher/handover_job.py): the outcome
+"""The handover job's reading of the episodes (services/launcher/episode_watch.py): the outcome
 of a dropped object comes from the simulation's truth, and only the supervisor's first summary
 of an episode counts (issue 17)."""
 
 from __future__ import annotations
 
 from bus_schema.messages import EpisodeSummary, SimTruth, SupervisorState
-from services.launcher.handover_job import EpisodeWatch
+from services.launcher.episode_watch import EpisodeWatch
 
 H = {"seq": 0, "stamp_ns": 1}
 

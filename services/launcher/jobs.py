@@ -1,0 +1,86 @@
+"""The jobs of `handover-up` that use the bus (``handover``, ``demo``): run one on the
+launcher's own bus node, and turn its result into the job's outcome.
+
+``handover`` follows the supervisor's episodes (`services.launcher.handover_job`); ``demo`` is
+the joint-space demo (`services.launcher.demo`). The launcher says the outcome's summary lines
+when the job succeeded, and takes its failure as the run's otherwise.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, TypeVar
+
+from services.runtime import Profile, ServiceNode
+
+if TYPE_CHECKING:
+    from services.launcher.demo import DemoResult
+    from services.launcher.handover_job import JobResult
+
+ResultT = TypeVar("ResultT")
+
+
+@dataclass(frozen=True)
+class JobOutcome:
+    """How a bus job ended: `ok`, else `failure` (one line); `summary`: lines to say when ok."""
+
+    ok: bool
+    failure: str = ""
+    summary: list[str] = field(default_factory=list)
+
+
+def handover_outcome(result: JobResult) -> JobOutcome:
+    """The handover job's outcome: a summary of the episodes' outcomes."""
+    outcomes = ", ".join(r.summary.outcome for r in result.reports)
+    return JobOutcome(result.ok, result.message,
+                      [f"summary: {len(result.reports)} episode(s): {outcomes}; object never dropped"])
+
+
+def demo_outcome(result: DemoResult) -> JobOutcome:
+    """The demo's outcome: its summary lines, indented under ``summary:``."""
+    return JobOutcome(result.ok, f"demo failed: {result.message}",
+                      ["summary:", *("  " + line for line in result.lines)])
+
+
+def handover_job_line(episodes: int) -> str:
+    """The line that opens the handover job of `episodes` episodes (0: unlimited)."""
+    return f"job: handover ({episodes or 'unlimited'} episode{'s' if episodes != 1 else ''})"
+
+
+def handover_job(episodes: int, episode_timeout_s: float, abort_reason: Callable[[], str | None],
+                 say: Callable[[str], None], supervisor_pid: Callable[[], int | None] | None,
+                 delivery_pids: tuple[int, ...]) -> Callable[[ServiceNode], JobOutcome]:
+    """The handover job, to run with `run_on_bus` (arguments: `handover_job.run_handover_job`'s)."""
+    from services.launcher.handover_job import run_handover_job
+
+    def run(node: ServiceNode) -> JobOutcome:
+        say(handover_job_line(episodes))
+        return handover_outcome(run_handover_job(node, episodes, abort_reason, say, episode_timeout_s,
+                                                 supervisor_pid, delivery_pids))
+
+    return run
+
+
+def demo_job(abort_reason: Callable[[], str | None], say: Callable[[str], None]) -> Callable[[ServiceNode], JobOutcome]:
+    """The joint-space demo, to run with `run_on_bus`."""
+    from services.launcher.demo import run_demo
+
+    def run(node: ServiceNode) -> JobOutcome:
+        say("job: joint-space demo")
+        return demo_outcome(run_demo(node, abort_reason))
+
+    return run
+
+
+def run_on_bus(bus_profile: Profile, stop_requested: threading.Event, job: Callable[[ServiceNode], ResultT]) -> ResultT:
+    """Run `job` on a bus node of the launcher's own (``launcher``, on `bus_profile`), which
+    stops once `stop_requested` is set."""
+    with ServiceNode("launcher", bus_profile, install_signal_handlers=False) as node:
+        def stop_when_asked() -> None:
+            stop_requested.wait()
+            node.request_stop()
+
+        threading.Thread(target=stop_when_asked, daemon=True).start()
+        return job(node)
