@@ -6,7 +6,7 @@ the `CommandGate`, step the backend, servo or hold, publish `robot/joint_state`.
 A `motion/stop` (release interrupt or protective stop) is acted on here too, without the
 motion service: the `StopBrake` brings the arm to rest with a bounded deceleration and
 ignores the stopped goal's commands. The stop does not wait for the next tick: its arrival
-wakes the loop (`StopTicker`), which runs a tick at once with the real elapsed dt, so the
+wakes the loop (`RateLoop` with an urgent predicate), which runs a tick at once with the real elapsed dt, so the
 joint state with the brake engaged is published within about a millisecond. A new
 supervisor episode resets a simulated scene.
 
@@ -27,7 +27,6 @@ from bus_schema import topics
 from services.bridge.backend import Backend, make_backend
 from services.bridge.config import BridgeConfig
 from services.bridge.core import CommandGate, StopBrake
-from services.bridge.ticker import StopTicker
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.runtime.repeat import RepeatGate, settled_key
 
@@ -59,7 +58,7 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
     new_episode = getattr(backend, "new_episode", None)
     with ServiceNode(SERVICE_NAME, profile) as node:
         state_pub = node.publisher(topics.JOINT_STATE)
-        # Read at the servo's tick; only a stop wakes the loop early (`StopTicker`).
+        # Read at the servo's tick; only a stop wakes the loop early (`ServiceNode.rate_loop`).
         commands = node.subscribe(topics.JOINT_COMMAND, wake=False)
         grip_commands = node.subscribe(topics.GRIPPER_COMMAND, wake=False)
         stops = node.subscribe(topics.MOTION_STOP, queue_size=16)
@@ -85,15 +84,14 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
             latest = stops.latest()
             return latest is not None and latest is not handled_stop[0]
 
-        ticker = StopTicker(node, config.rate_hz, stop_pending if config.stop_wakes_loop else None,
-                            name=f"{SERVICE_NAME} {config.rate_hz:g} Hz loop")
+        ticker = node.rate_loop(config.rate_hz, urgent=stop_pending if config.stop_wakes_loop else None)
         log.info("bridge running", extra=kv(backend=backend.name, rate_hz=config.rate_hz,
                                             command_timeout_s=config.command_timeout_s,
                                             stop_wakes_loop=config.stop_wakes_loop))
         last_s = time.monotonic()
         was_holding = True
         try:
-            for _urgent in ticker:
+            for _tick in ticker:
                 now_s = time.monotonic()
                 dt_s, last_s = now_s - last_s, now_s
                 if dt_s > STALL_PERIODS * ticker.period_s:

@@ -47,6 +47,28 @@ def test_overruns_are_counted_and_deadlines_skipped():
     assert loop.stats.skipped >= 2
 
 
+def test_an_overrun_skips_the_missed_deadlines_on_an_injected_clock():
+    now = [10.0]
+    stop = threading.Event()
+
+    def wait(timeout_s: float) -> bool:
+        now[0] += timeout_s
+        return stop.is_set()
+
+    loop = RateLoop(100.0, stop, clock=lambda: now[0], wait=wait)
+    starts = []
+    for tick in loop:
+        starts.append(now[0])
+        if tick == 1:
+            now[0] += 0.035  # the work of tick 1 misses the deadlines at 10.02, 10.03 and 10.04
+        if tick == 4:
+            stop.set()
+    # Tick 2 at once (no burst after it), then back on the grid.
+    assert starts == pytest.approx([10.0, 10.01, 10.045, 10.05, 10.06])
+    assert (loop.stats.overruns, loop.stats.skipped) == (1, 2)
+    assert loop.stats.worst_lateness_s == pytest.approx(0.005)
+
+
 def test_rate_must_be_positive():
     with pytest.raises(ValueError):
         RateLoop(0.0, threading.Event())
