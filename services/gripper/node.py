@@ -50,8 +50,10 @@ _LATENCY_WINDOW = 20_000
 HOLD_LOG_PERIOD_S = 2.0
 
 
-class _GripperLoop:
-    """The service's state shared by the Zenoh callbacks and the main thread."""
+class _GripperIO:
+    """The gripper's bus side, shared by the Zenoh callbacks and the main thread under one
+    lock: sensor samples in (decoded, handed to the core), command, state and release out.
+    (The loop's timing is the core's: `GripperCore.due` and `next_due_s`.)"""
 
     def __init__(self, node: ServiceNode, config: GripperConfig, core: GripperCore) -> None:
         self.node, self.config, self.core = node, config, core
@@ -143,33 +145,34 @@ class _GripperLoop:
                 "latency_p99_us": round(float(np.percentile(a, 99)), 1)}
 
 
-def _offer_queued(loop: _GripperLoop, wrench_sub, motion_sub) -> None:
+def _offer_queued(gripper_io: _GripperIO, wrench_sub, motion_sub) -> None:
     """Main-thread path (`step_in_callback = false`): hand the queued samples to the core."""
-    with loop.lock:
+    with gripper_io.lock:
         for rx in wrench_sub.drain():
             f = rx.msg.force_n
-            loop.core.offer_wrench(WrenchReading(force_x_n=f[0], force_y_n=f[1], rx_s=rx.rx_monotonic))
+            gripper_io.core.offer_wrench(WrenchReading(force_x_n=f[0], force_y_n=f[1], rx_s=rx.rx_monotonic))
         for rx in motion_sub.drain():
             m = rx.msg
-            loop.core.offer_motion(MotionReading(accel_y_m_s2=m.accel_y_m_s2, slip_velocity_x_m_s=m.velocity_m_s[0],
-                                                 slip_velocity_y_m_s=m.velocity_m_s[1],
-                                                 surface_valid=m.surface_valid, rx_s=rx.rx_monotonic))
-        loop.core.note_rejected("wrist_wrench", wrench_sub.stats.rejected)
-        loop.core.note_rejected("object_motion", motion_sub.stats.rejected)
+            gripper_io.core.offer_motion(MotionReading(accel_y_m_s2=m.accel_y_m_s2,
+                                                       slip_velocity_x_m_s=m.velocity_m_s[0],
+                                                       slip_velocity_y_m_s=m.velocity_m_s[1],
+                                                       surface_valid=m.surface_valid, rx_s=rx.rx_monotonic))
+        gripper_io.core.note_rejected("wrist_wrench", wrench_sub.stats.rejected)
+        gripper_io.core.note_rejected("object_motion", motion_sub.stats.rejected)
 
 
 def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | None = None) -> int:
     """Run the gripper service until SIGINT/SIGTERM. Returns the exit code."""
     core = core or GripperCore(config)
     with ServiceNode(SERVICE_NAME, profile) as node:
-        loop = _GripperLoop(node, config, core)
+        gripper_io = _GripperIO(node, config, core)
         supervisor_sub = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16)
         session = node.session
         subscribers, queued = [], None
         if config.step_in_callback:
             subscribers = [
-                session.declare_subscriber(topics.WRIST_WRENCH.key(profile.prefix), loop.on_wrench),
-                session.declare_subscriber(topics.OBJECT_MOTION.key(profile.prefix), loop.on_motion),
+                session.declare_subscriber(topics.WRIST_WRENCH.key(profile.prefix), gripper_io.on_wrench),
+                session.declare_subscriber(topics.OBJECT_MOTION.key(profile.prefix), gripper_io.on_motion),
             ]
         else:  # one thread hop more: decode in Zenoh's thread, step in the main thread
             # A wrench sample wakes a step; the object motion is read at that step.
@@ -180,13 +183,13 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
                                              step_in_callback=config.step_in_callback))
         try:
             while not node.should_stop:
-                with loop.lock:
+                with gripper_io.lock:
                     wait_s = core.next_due_s(time.monotonic())
                 node.wait(min(wait_s, _MAX_WAIT_S))
                 if queued is not None:
-                    _offer_queued(loop, *queued)
+                    _offer_queued(gripper_io, *queued)
                 for rx in supervisor_sub.drain():
-                    with loop.lock:
+                    with gripper_io.lock:
                         if (config.rearm_on_new_episode and episode_id is not None
                                 and rx.msg.episode_id != episode_id):
                             log.info("new episode: re-arming", extra=kv(episode_id=rx.msg.episode_id))
@@ -199,11 +202,11 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
                     queued[0].wakes_loop = core.releasing
                 if node.should_stop:
                     break
-                with loop.lock:
+                with gripper_io.lock:
                     now_s = time.monotonic()
                     if core.due(now_s):
                         rx_s = core.wrench_rx_s if core.has_new_wrench else None
-                        loop.publish(core.tick(now_s), now_s, rx_s)
+                        gripper_io.publish(core.tick(now_s), now_s, rx_s)
         finally:
             for sub in subscribers:
                 try:
@@ -211,7 +214,7 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
                 except Exception:  # noqa: BLE001 - best-effort close: the session may already be closing
                     pass
         log.info("gripper stopped", extra=kv(steps=core.steps, holds=core.holds, released=core.released,
-                                             commands_sent=loop.command_gate.sent,
-                                             unchanged_commands_not_sent=loop.command_gate.skipped,
-                                             **loop.latency_summary()))
+                                             commands_sent=gripper_io.command_gate.sent,
+                                             unchanged_commands_not_sent=gripper_io.command_gate.skipped,
+                                             **gripper_io.latency_summary()))
     return 0

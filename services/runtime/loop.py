@@ -1,13 +1,18 @@
-"""Fixed-rate loop with overrun reporting, driven by the local monotonic clock."""
+"""The one loop-pacing primitive of the services: `RateLoop`, a fixed-rate deadline grid with
+overrun reporting and, optionally, an urgent extra tick between grid ticks.
+
+Time and sleeping are injected (a monotonic-seconds callable and a wait(timeout_s) callable,
+by default `time.monotonic` and the stop event's `wait`), so a loop can be driven by another
+clock than the local one.
+"""
 
 from __future__ import annotations
 
 import logging
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Any
 
 from services.runtime.logs import RateLimitedLog
 
@@ -16,69 +21,134 @@ log = logging.getLogger(__name__)
 #: A loop's overruns are logged at most once per this many seconds (each line counts them all).
 OVERRUN_LOG_PERIOD_S = 10.0
 
+#: wait(timeout_s): blocks at most `timeout_s` seconds; returns early on a stop (and, for a
+#: wake source, when something arrived). Its return value is not used.
+WaitFn = Callable[[float], object]
+
 
 @dataclass
 class LoopStats:
     """Counters of a `RateLoop`.
 
     Attributes:
-        ticks: ticks run so far.
-        overruns: ticks whose work ran past the next deadline.
+        ticks: grid ticks run so far.
+        urgent_ticks: extra ticks run between grid ticks because `urgent()` was true.
+        wakeups: returns of the wake source before the deadline (with `urgent` only).
+        overruns: grid ticks whose work ran past the next deadline.
         skipped: deadlines skipped to catch up after an overrun.
-        worst_lateness_s: largest lateness of a tick start, s.
+        worst_lateness_s: largest lateness of a grid tick's start, s.
     """
 
     ticks: int = 0
+    urgent_ticks: int = 0
+    wakeups: int = 0
     overruns: int = 0
     skipped: int = 0
     worst_lateness_s: float = 0.0
 
 
-def skip_missed(stats: Any, overrun_log: RateLimitedLog, name: str, period_s: float,
-                next_deadline_s: float, now_s: float) -> float:
-    """A tick's work ran past `next_deadline_s` (monotonic s): count the overrun and the
-    deadlines skipped (`stats.overruns`, `stats.skipped`), log it (rate-limited) and return the
-    deadline to wait for next: the last missed one, so the loop does not burst to catch up."""
-    missed = int((now_s - next_deadline_s) // period_s) + 1
-    stats.overruns += 1
-    stats.skipped += missed - 1
-    next_deadline_s += (missed - 1) * period_s
-    overrun_log.info("overrun", f"{name} tick overran its {period_s * 1e3:.1f} ms period",
-                     overruns=stats.overruns, late_ms=round((now_s - next_deadline_s + period_s) * 1e3, 2))
-    return next_deadline_s
-
-
 class RateLoop:
-    """Iterate at `rate_hz` until `stop_event` is set.
+    """Iterate at `rate_hz` on a deadline grid until `stop_event` is set; each iteration yields
+    the tick index (ticks run before it, grid and urgent).
 
-    Each iteration yields the tick index. Sleeping uses ``stop_event.wait`` so a shutdown
-    request ends the loop at once. When a tick's work overruns the period the loop does not
-    try to catch up with a burst: it skips the missed deadlines, counts them and logs at most
-    once every `OVERRUN_LOG_PERIOD_S`.
+    Between ticks the loop sleeps with `wait`, which a shutdown request ends at once. When a
+    tick's work overruns the period the loop does not try to catch up with a burst: it skips the
+    missed deadlines, counts them and logs at most once every `OVERRUN_LOG_PERIOD_S`.
+
+    With `urgent` the loop sleeps in `wake_source` instead, which returns early when something
+    arrives (`ServiceNode.wait`: any subscription declared with ``wake=True``). After each
+    early return it asks `urgent()`; when True it runs an extra tick at once (`urgent_tick` is
+    True during it; the caller measures the real elapsed time). Extra ticks do not move the grid,
+    and at most one runs per period: the first urgent event is acted on at once, a flood of them
+    cannot turn the loop into a busy loop (later ones are handled on the grid, within a period).
+
+    Args:
+        rate_hz: grid rate, Hz (> 0).
+        stop_event: ends the loop once set.
+        name: for the overrun log line.
+        clock: monotonic time, s (default `time.monotonic`).
+        wait: wait(timeout_s) until the next deadline or a stop (default ``stop_event.wait``).
+        urgent: called after each early wake; True runs an extra tick. None: the grid only.
+        wake_source: wait(timeout_s) that also returns when something arrives; required with
+            `urgent`.
+
+    Attributes:
+        period_s: the grid's period, s.
+        stats: the loop's `LoopStats`.
+        urgent_tick: the tick just yielded is an urgent extra tick.
     """
 
-    def __init__(self, rate_hz: float, stop_event: threading.Event, name: str = "loop") -> None:
+    def __init__(self, rate_hz: float, stop_event: threading.Event, name: str = "loop", *,
+                 clock: Callable[[], float] = time.monotonic, wait: WaitFn | None = None,
+                 urgent: Callable[[], bool] | None = None, wake_source: WaitFn | None = None) -> None:
         if not rate_hz > 0:
             raise ValueError(f"loop rate must be > 0 Hz, got {rate_hz}")
+        if urgent is not None and wake_source is None:
+            raise ValueError("an urgent tick needs a wake source that returns when something arrives")
         self.period_s = 1.0 / rate_hz
         self.stop_event = stop_event
         self.name = name
         self.stats = LoopStats()
+        self.urgent_tick = False
+        self._clock = clock
+        self._wait: WaitFn = wait if wait is not None else stop_event.wait
+        self._urgent = urgent
+        self._wake_source = wake_source
         self._overrun_log = RateLimitedLog(log, OVERRUN_LOG_PERIOD_S)
 
     def __iter__(self) -> Iterator[int]:
         period = self.period_s
-        next_deadline = time.monotonic()
+        stats = self.stats
+        next_deadline = self._clock()
         while not self.stop_event.is_set():
-            now = time.monotonic()
-            lateness = now - next_deadline
-            if lateness > self.stats.worst_lateness_s:
-                self.stats.worst_lateness_s = lateness
-            yield self.stats.ticks
-            self.stats.ticks += 1
+            lateness = self._clock() - next_deadline
+            if lateness > stats.worst_lateness_s:
+                stats.worst_lateness_s = lateness
+            self.urgent_tick = False
+            yield stats.ticks + stats.urgent_ticks
+            stats.ticks += 1
             next_deadline += period
-            now = time.monotonic()
+            now = self._clock()
             if now > next_deadline:
-                next_deadline = skip_missed(self.stats, self._overrun_log, self.name, period, next_deadline, now)
+                next_deadline = self._skip_missed(next_deadline, now)
                 continue
-            self.stop_event.wait(next_deadline - now)
+            for _ in self._sleep_until(next_deadline):
+                index = stats.ticks + stats.urgent_ticks
+                stats.urgent_ticks += 1
+                self.urgent_tick = True
+                yield index
+
+    def _sleep_until(self, deadline_s: float) -> Iterator[None]:
+        """Sleep until `deadline_s` (monotonic s) or a stop; yields once for an urgent extra tick
+        (at most once)."""
+        extra_allowed = self._urgent is not None
+        while not self.stop_event.is_set():
+            remaining = deadline_s - self._clock()
+            if remaining <= 0.0:
+                return
+            if not extra_allowed:
+                self._wait(remaining)
+                continue
+            assert self._wake_source is not None and self._urgent is not None
+            self._wake_source(remaining)
+            if self.stop_event.is_set():
+                return
+            if self._clock() < deadline_s:
+                self.stats.wakeups += 1
+            if self._urgent():
+                extra_allowed = False
+                yield
+
+    def _skip_missed(self, next_deadline_s: float, now_s: float) -> float:
+        """A tick's work ran past `next_deadline_s` (monotonic s): count the overrun and the
+        deadlines skipped, log it (rate-limited) and return the deadline to wait for next: the
+        last missed one, so the loop does not burst to catch up."""
+        period = self.period_s
+        missed = int((now_s - next_deadline_s) // period) + 1
+        self.stats.overruns += 1
+        self.stats.skipped += missed - 1
+        next_deadline_s += (missed - 1) * period
+        self._overrun_log.info("overrun", f"{self.name} tick overran its {period * 1e3:.1f} ms period",
+                               overruns=self.stats.overruns,
+                               late_ms=round((now_s - next_deadline_s + period) * 1e3, 2))
+        return next_deadline_s

@@ -19,7 +19,7 @@ import os
 import signal
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import zenoh
@@ -305,10 +305,18 @@ class ServiceNode:
     def loop(self, rate_hz: float) -> Iterator[int]:
         """A fixed-rate loop (see `RateLoop`) that ends on shutdown (declares the liveliness
         token first if `ready()` was not called)."""
+        yield from self.rate_loop(rate_hz)
+
+    def rate_loop(self, rate_hz: float, urgent: Callable[[], bool] | None = None) -> RateLoop:
+        """The `RateLoop` at `rate_hz` (Hz) behind `loop`, for a caller that reads its period or
+        stats. `urgent`: asked whenever a subscription with ``wake=True`` wakes the loop; True
+        runs an extra tick at once (at most one per period). Declares the liveliness token
+        first if `ready()` was not called."""
         self.ready()
-        loop = RateLoop(rate_hz, self.stop_event, name=f"{self.name} {rate_hz:g} Hz loop")
+        loop = RateLoop(rate_hz, self.stop_event, name=f"{self.name} {rate_hz:g} Hz loop",
+                        urgent=urgent, wake_source=self.wait if urgent is not None else None)
         self.loops.append(loop)
-        yield from loop
+        return loop
 
     def stats(self) -> dict[str, Any]:
         """Counters of every subscription and loop, for logs and tests."""

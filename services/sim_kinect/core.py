@@ -107,25 +107,3 @@ class TruthGate:
         """The truth fields of `frame` if they must be published at `now_s` (monotonic s), else None."""
         fields = truth_fields(frame)
         return fields if self._gate.due(settled_key(fields.values()), now_s) else None
-
-
-class FrameClock:
-    """Frame deadlines at `rate_hz` on the monotonic clock; a late frame does not cause a
-    burst of catch-up frames (the next deadline restarts from now)."""
-
-    def __init__(self, rate_hz: float, start_s: float) -> None:
-        if not rate_hz > 0:
-            raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
-        self.period_s = 1.0 / rate_hz
-        self.next_s = start_s
-        self.late_frames = 0
-
-    def advance(self, now_s: float) -> float:
-        """After a frame finished at `now_s` (s): how long to wait for the next one, s."""
-        self.next_s += self.period_s
-        delay = self.next_s - now_s
-        if delay < 0.0:
-            self.late_frames += 1
-            self.next_s = now_s
-            return 0.0
-        return delay

@@ -22,9 +22,9 @@ from typing import Any
 import numpy as np
 
 from bus_schema import topics
-from services.runtime import RateLimitedLog
+from services.runtime import RateLimitedLog, RateLoop
 from services.sim_kinect.config import KinectConfig
-from services.sim_kinect.core import FrameClock, TruthGate, make_kinect_sim
+from services.sim_kinect.core import TruthGate, make_kinect_sim
 
 log = logging.getLogger(__name__)
 
@@ -71,8 +71,7 @@ class KinectThread:
 
     def _run(self) -> None:
         t0 = time.monotonic()
-        clock = FrameClock(self.rate_hz, t0)
-        while not self._stop.is_set():
+        for _frame in RateLoop(self.rate_hz, self._stop, name=f"kinect thread {self.rate_hz:g} Hz loop"):
             with self._lock:
                 q = None if self._q_arm is None else self._q_arm.copy()
                 hand, obj = self._hand, self._object
@@ -87,4 +86,3 @@ class KinectThread:
                     self.frames += 1
                 except Exception as exc:  # noqa: BLE001 - a bad frame must not kill the host
                     self._errors.warning("kinect", f"simulated Kinect frame failed: {exc!r}")
-            self._stop.wait(clock.advance(time.monotonic()))

@@ -72,7 +72,7 @@ class _Publisher:
 
 
 class Loop:
-    """The bridge loop's work with its backend on one tick (`services.bridge.node.run_bridge`)."""
+    """The bridge loop's work with its backend on one tick (`services.bridge.arm_loop.ArmLoop.tick`)."""
 
     def __init__(self, backend, sink: list | None = None) -> None:
         self.backend, self.sink = backend, sink

@@ -1,5 +1,5 @@
-"""Simulated Kinect service: joint-state mapping, scene input, truth fields, frame clock,
-config and CLI errors."""
+"""Simulated Kinect service: joint-state mapping, scene input, truth fields, config and CLI
+errors (the frame thread's pacing is `RateLoop`'s, tests/unit/runtime/test_loop_and_logs.py)."""
 
 from __future__ import annotations
 
@@ -11,8 +11,7 @@ from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from robot_sim.kinect.receiver import BodySize, ReceiverBody
 from services.sim_kinect.cli import main
 from services.sim_kinect.config import KinectConfig, parse_config
-from services.sim_kinect.core import (FrameClock, TruthGate, arm_posture_rad, make_kinect_sim, scene_input,
-                                      truth_fields)
+from services.sim_kinect.core import TruthGate, arm_posture_rad, make_kinect_sim, scene_input, truth_fields
 from services.sim_kinect.errors import KinectConfigError
 
 HOME = np.array(RIGHT_ARM_HOME_RAD)
@@ -75,14 +74,6 @@ def test_a_still_body_truth_goes_out_ten_times_a_second_and_a_moved_one_at_once(
     assert fields is not None
     np.testing.assert_allclose(fields["hand_position_m"], truth_fields(moved)["hand_position_m"])
     assert gate.due(moved, 1.0 + 2 / 30.0) is None
-
-
-def test_frame_clock_keeps_the_rate_and_does_not_burst_after_a_late_frame():
-    clock = FrameClock(30.0, start_s=100.0)
-    assert clock.advance(100.010) == pytest.approx(1 / 30 - 0.010)
-    # A frame that ends 0.1 s late: no wait, and the next deadline restarts from now.
-    assert clock.advance(100.2) == 0.0 and clock.late_frames == 1
-    assert clock.advance(100.205) == pytest.approx(1 / 30 - 0.005)
 
 
 @pytest.mark.parametrize("table, key", [

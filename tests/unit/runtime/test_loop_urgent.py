@@ -1,20 +1,15 @@
-"""The bridge's loop clock wakes at once for a stop and keeps its 100 Hz grid; the bridge's
-config: the Kinect moved out, the scene receiver's body stays."""
+"""`RateLoop` with an urgent predicate (the bridge's loop: a stop runs a tick at once): one
+extra tick between grid ticks, the grid kept, at most one extra tick per period; on fake time."""
 
 from __future__ import annotations
 
 import pytest
 
-from services.bridge.backend import make_backend
-from services.bridge.cli import main as bridge_main
-from services.bridge.config import ContactConfig, parse_config
-from services.bridge.errors import BridgeConfigError
-from services.bridge import ticker as ticker_module
-from services.bridge.ticker import StopTicker
+from services.runtime.loop import RateLoop
 
 
 class FakeClock:
-    """`time.monotonic` for the ticker, advanced only by the fake node's waits, s."""
+    """`time.monotonic` for the loop, advanced only by the fake node's waits, s."""
 
     def __init__(self) -> None:
         self.now_s = 100.0
@@ -42,7 +37,7 @@ class FakeStopEvent:
 
 
 class ScriptedNode:
-    """The part of `ServiceNode` the ticker uses, on fake time: `wait` returns at once when a
+    """The part of `ServiceNode` the loop uses, on fake time: `wait` returns at once when a
     message is queued (`notify`), else at the first scripted message within the time-out
     (time, is_stop), else when the time-out passes. No threads, no real sleeps: the test
     does not depend on how busy the machine is."""
@@ -74,17 +69,22 @@ class ScriptedNode:
 
 
 @pytest.fixture
-def clock(monkeypatch):
-    fake = FakeClock()
-    monkeypatch.setattr(ticker_module, "time", fake)
-    return fake
+def clock():
+    return FakeClock()
 
 
-def _run(ticker: StopTicker, node: ScriptedNode, clock: FakeClock, grid_ticks: int) -> list[tuple[bool, float]]:
-    """Iterate `ticker` for `grid_ticks` grid ticks; returns (urgent, fake time) per tick. An
+def _urgent_loop(node: ScriptedNode, clock: FakeClock, rate_hz: float, urgent) -> RateLoop:
+    """A `RateLoop` on the scripted node's fake time, as `ServiceNode.rate_loop` builds it."""
+    return RateLoop(rate_hz, node.stop_event, clock=clock.monotonic, urgent=urgent,
+                    wake_source=node.wait if urgent is not None else None)
+
+
+def _run(loop: RateLoop, node: ScriptedNode, clock: FakeClock, grid_ticks: int) -> list[tuple[bool, float]]:
+    """Iterate `loop` for `grid_ticks` grid ticks; returns (urgent, fake time) per tick. An
     urgent tick drains the pending stop, as the bridge's does."""
     ticks: list[tuple[bool, float]] = []
-    for urgent in ticker:
+    for _tick in loop:
+        urgent = loop.urgent_tick
         ticks.append((urgent, clock.now_s))
         if urgent:
             node.stop_pending = False
@@ -99,21 +99,21 @@ def test_a_stop_runs_one_extra_tick_between_grid_ticks(clock, also_unrelated):
     # it, optionally a message that wakes the loop but is not urgent, e.g. a joint command).
     script = [(100.045, True)] + ([(100.043, False)] if also_unrelated else [])
     node = ScriptedNode(clock, script)
-    ticker = StopTicker(node, 50.0, lambda: node.stop_pending)
-    ticks = _run(ticker, node, clock, grid_ticks=6)
+    loop = _urgent_loop(node, clock, 50.0, lambda: node.stop_pending)
+    ticks = _run(loop, node, clock, grid_ticks=6)
     assert [u for u, _ in ticks] == [False, False, False, True, False, False, False]
     assert ticks[3][1] == pytest.approx(100.045)  # at once, not at the next grid tick
-    assert ticker.stats.urgent_ticks == 1 and ticker.stats.ticks == 6
+    assert loop.stats.urgent_ticks == 1 and loop.stats.ticks == 6
     # The grid is kept: the extra tick did not move the following grid ticks.
     assert [t for u, t in ticks if not u] == pytest.approx([100.0 + 0.02 * k for k in range(6)])
 
 
 def test_a_flood_of_stops_runs_at_most_one_extra_tick_per_period(clock):
     node = ScriptedNode(clock)
-    ticker = StopTicker(node, 50.0, lambda: True)  # a stop is always pending
+    loop = _urgent_loop(node, clock, 50.0, lambda: True)  # a stop is always pending
     kinds = []
-    for urgent in ticker:
-        kinds.append(urgent)
+    for _tick in loop:
+        kinds.append(loop.urgent_tick)
         node.notify()  # and another one arrives at once
         if kinds.count(False) >= 4:
             node.stop_event.set()
@@ -122,28 +122,27 @@ def test_a_flood_of_stops_runs_at_most_one_extra_tick_per_period(clock):
 
 def test_without_urgent_the_stop_waits_for_the_grid(clock):
     node = ScriptedNode(clock, [(100.025, True)])
-    ticker = StopTicker(node, 50.0, None)
-    ticks = _run(ticker, node, clock, grid_ticks=5)
-    assert all(not u for u, _ in ticks) and ticker.stats.urgent_ticks == 0
+    loop = _urgent_loop(node, clock, 50.0, None)
+    ticks = _run(loop, node, clock, grid_ticks=5)
+    assert all(not u for u, _ in ticks) and loop.stats.urgent_ticks == 0
     assert [t for _u, t in ticks] == pytest.approx([100.0 + 0.02 * k for k in range(5)])
     assert node.script == [(100.025, True)]  # it never woke the loop: it sleeps to the next grid tick
 
 
-def test_the_kinect_table_moved_out_of_the_bridge():
-    with pytest.raises(BridgeConfigError, match=r"services\.kinect\.config"):
-        parse_config({"kinect": {"enabled": True}})
-    assert parse_config({}).stop_wakes_loop
+def test_tick_indexes_count_grid_and_urgent_ticks(clock):
+    node = ScriptedNode(clock, [(100.005, True)])
+    loop = _urgent_loop(node, clock, 50.0, lambda: node.stop_pending)
+    seen = []
+    for tick in loop:
+        seen.append((tick, loop.urgent_tick))
+        node.stop_pending = False
+        if len(seen) == 3:
+            node.stop_event.set()
+    assert seen == [(0, False), (1, True), (2, False)]
+    assert (loop.stats.ticks, loop.stats.urgent_ticks, loop.stats.wakeups) == (2, 1, 1)
 
 
-def test_the_scene_receivers_body_comes_from_the_contact_table():
-    backend = make_backend("sim", contact=ContactConfig(enabled=True, scenario="handover", posture="sitting",
-                                                       height_m=1.6))
-    size = backend.scene.body.size
-    assert (size.posture, size.height_m) == ("sitting", 1.6)
-
-
-def test_bridge_cli_no_longer_takes_kinect_flags(capsys):
-    with pytest.raises(SystemExit) as exc:
-        bridge_main(["--kinect"])
-    assert exc.value.code == 2
-    assert "--kinect" in capsys.readouterr().err
+def test_an_urgent_predicate_needs_a_wake_source(clock):
+    node = ScriptedNode(clock)
+    with pytest.raises(ValueError, match="wake source"):
+        RateLoop(50.0, node.stop_event, urgent=lambda: True)
