@@ -17,9 +17,10 @@ import time
 from bus_schema import topics
 from robot_sim.baxter import RIGHT_ARM_JOINTS
 from services.motion.config import MotionConfig
-from services.motion.core import MotionController, arm_positions_from
+from services.motion.core import MotionController
 from services.motion.errors import MotionError
 from services.motion.ik import ArmIk
+from services.motion.joint_state import arm_positions_from
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.runtime.loop import OVERRUN_LOG_PERIOD_S
 from services.runtime.repeat import HOLD_REPEAT_S, RepeatGate
