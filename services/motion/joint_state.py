@@ -10,6 +10,8 @@ import numpy as np
 from bus_schema.messages import JointState
 from robot_sim import baxter
 from services.motion.errors import MotionError
+from services.runtime.logs import RateLimitedLog
+from services.runtime.pubsub import Received
 
 
 @dataclass(frozen=True)
@@ -57,3 +59,27 @@ def arm_measurement_from(msg: JointState, received_at_s: float) -> ArmMeasuremen
         dq = arm_positions_from(msg.names, msg.velocity_rad_s)
     return ArmMeasurement(q, dq, received_at_s)
 
+
+class NewestArmState:
+    """Gives each received joint state to the controller once: the node reads its
+    subscription's newest message at every tick, and the same message may still be the
+    newest at the next one.
+
+    Args:
+        bad_state_log: where a malformed joint state is reported (rate-limited).
+    """
+
+    def __init__(self, bad_state_log: RateLimitedLog) -> None:
+        self._bad_state_log = bad_state_log
+        self._last: Received[JointState] | None = None
+
+    def take(self, latest: Received[JointState] | None) -> ArmMeasurement | None:
+        """The measurement in `latest` if it is new and well formed, else None."""
+        if latest is None or latest is self._last:
+            return None
+        self._last = latest
+        try:
+            return arm_measurement_from(latest.msg, latest.rx_monotonic)
+        except MotionError as exc:
+            self._bad_state_log.warning("joint_state", f"ignoring joint state: {exc}")
+            return None
