@@ -26,8 +26,8 @@ always wins. Copies of a goal, and goals sent before a stop, are ignored (`goal_
 The controller composes one part per job: `goal_filter` (which goals to act on),
 `planning` (goal checks via `goal_targets`, Ruckig moves and brakes, Cartesian reaches),
 `tracking` (the live IK stepping of a reach), `start_states` (where a goal or a brake
-starts),
-`commanded` (the commanded joint state and tool speed) and `status` (what is reported).
+starts), `commanded` (the commanded joint state and tool speed) and `status` (what is
+reported).
 """
 
 from __future__ import annotations
@@ -47,8 +47,8 @@ from services.motion.ik import ArmIk
 from services.motion.joint_state import ArmMeasurement
 from services.motion.paths import JointTrajectory
 from services.motion.planning import GoalPlanner, RestFirst
-from services.motion.status import Status, StatusBoard, TickOutput
 from services.motion.start_states import brake_start, goal_start
+from services.motion.status import Status, StatusBoard, TickOutput
 from services.motion.tracking import CartesianTracker
 
 log = logging.getLogger(__name__)
