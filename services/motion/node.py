@@ -1,12 +1,17 @@
-"""Bus wiring of the motion service.
+"""Bus wiring of the motion service: goals, stops and joint states in; joint commands and the
+status out. The decisions are in `core.MotionController`; which received joint state is new in
+`joint_state.NewestArmState`; what goes on the bus when in `outbox.Outbox`.
 
 In: `motion/goal`, `motion/stop`, `robot/joint_state`. Out: `robot/joint_command` (100 Hz
 once a first goal has been accepted: the moving target, then the held final or stopped
 position) and `motion/status` (`status_rate_hz` and on every change).
 
 The loop ticks at `rate_hz` on the local monotonic clock. Between ticks it sleeps on the
-node's data notification, and a `MotionStop` triggers an extra tick at once, so a stop is
-acted on within the bus latency rather than up to one period later.
+node's data notification, and a `MotionStop` or a `MotionGoal` triggers an extra tick at
+once, so a stop is acted on within the bus latency rather than up to one period later. At
+rest (`MotionController.at_rest`) it ticks only when the hold command's copy is due.
+`RateLoop` (services.runtime.loop) has neither the early tick nor the slower rest, so this
+loop paces itself.
 """
 
 from __future__ import annotations
@@ -15,14 +20,14 @@ import logging
 import time
 
 from bus_schema import topics
-from handover_model.baxter import RIGHT_ARM_JOINTS
 from services.motion.config import MotionConfig
-from services.motion.core import MotionController, arm_positions_from
-from services.motion.errors import MotionError
+from services.motion.core import MotionController
 from services.motion.ik import ArmIk
+from services.motion.joint_state import NewestArmState
+from services.motion.outbox import Outbox
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.runtime.loop import OVERRUN_LOG_PERIOD_S
-from services.runtime.repeat import HOLD_REPEAT_S, RepeatGate
+from services.runtime.repeat import HOLD_REPEAT_S
 
 log = logging.getLogger(__name__)
 
@@ -32,11 +37,10 @@ SERVICE_NAME = "motion"
 def run_motion(profile: Profile, config: MotionConfig) -> int:
     """Run the motion service until SIGINT/SIGTERM. Returns the exit code."""
     controller = MotionController(config, ArmIk(config))
-    bad_state_log = RateLimitedLog(log, 1.0)
+    arm_state = NewestArmState(RateLimitedLog(log, 1.0))
+    outbox = Outbox(config.status_rate_hz)
     overrun_log = RateLimitedLog(log, OVERRUN_LOG_PERIOD_S)
     period = config.period_s
-    status_every_s = 1.0 / config.status_rate_hz
-    joint_names = list(RIGHT_ARM_JOINTS)
     with ServiceNode(SERVICE_NAME, profile) as node:
         command_pub = node.publisher(topics.JOINT_COMMAND)
         status_pub = node.publisher(topics.MOTION_STATUS)
@@ -45,10 +49,7 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
         states = node.subscribe(topics.JOINT_STATE, queue_size=16, wake=False)  # read at the tick
         node.ready()
         log.info("motion running", extra=kv(rate_hz=config.rate_hz))
-        last_state = None
         next_tick = time.monotonic()
-        last_status_s = -float("inf")
-        command_gate = RepeatGate()
         seen_stops = seen_goals = 0
         ticks = overruns = rest_ticks = 0
         while not node.should_stop:
@@ -60,8 +61,7 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
                 node.wait(next_tick - now)
                 continue
             seen_stops, seen_goals = stops.stats.accepted, goals.stats.accepted
-            periodic = now >= next_tick
-            if periodic:
+            if now >= next_tick:  # a periodic tick (else an extra one for a stop or a goal)
                 next_tick += period
                 if now > next_tick:  # overran: skip missed deadlines, no burst
                     overruns += 1
@@ -69,47 +69,20 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
                     overrun_log.info("overrun", "motion tick overran its period", overruns=overruns)
             ticks += 1
             states.drain()
-            latest = states.latest()
-            measured_q = measured_dq = None
-            measured_at = None
-            if latest is not None and latest is not last_state:
-                last_state = latest
-                try:
-                    measured_q = arm_positions_from(latest.msg.names, latest.msg.position_rad)
-                    if len(latest.msg.velocity_rad_s) == len(latest.msg.names):
-                        measured_dq = arm_positions_from(latest.msg.names, latest.msg.velocity_rad_s)
-                    measured_at = latest.rx_monotonic
-                except MotionError as exc:
-                    bad_state_log.warning("joint_state", f"ignoring joint state: {exc}")
-            out = controller.step(
-                now,
-                measured_q,
-                [r.msg for r in goals.drain()],
-                [r.msg for r in stops.drain()],
-                measured_dq_rad_s=measured_dq,
-                measured_at_s=measured_at,
-            )
-            if out.command_q_rad is not None:
-                position = out.command_q_rad.tolist()
-                velocity = out.command_dq_rad_s.tolist()
-                # Moving: every tick. Holding still: on a change, else a copy every 50 ms.
-                if command_gate.due((*position, out.goal_id), now, always=any(velocity)):
-                    command_pub.put(names=joint_names, position_rad=position, velocity_rad_s=velocity,
-                                    goal_id=out.goal_id)
-            if out.status_changed or now - last_status_s >= status_every_s:
-                st = out.status
-                status_pub.put(
-                    goal_id=st.goal_id,
-                    state=st.state,
-                    reason=st.reason,
-                    progress=st.progress,
-                    tool_speed_m_s=st.tool_speed_m_s,
-                )
-                last_status_s = now
+            measured = arm_state.take(states.latest())
+            if measured is not None:
+                controller.note_measurement(measured)
+            out = controller.step(now, goals=[r.msg for r in goals.drain()], stops=[r.msg for r in stops.drain()])
+            command = outbox.command(out, now)
+            if command is not None:
+                command_pub.put(**command)
+            status = outbox.status(out, now)
+            if status is not None:
+                status_pub.put(**status)
             if controller.at_rest:  # holding still: tick again when the hold's copy is due
                 rest_ticks += 1
                 next_tick = max(next_tick, now + HOLD_REPEAT_S)
         log.info("motion stopped", extra=kv(ticks=ticks, rest_ticks=rest_ticks, overruns=overruns,
-                                            commands_sent=command_gate.sent,
-                                            unchanged_commands_not_sent=command_gate.skipped))
+                                            commands_sent=outbox.command_gate.sent,
+                                            unchanged_commands_not_sent=outbox.command_gate.skipped))
     return 0

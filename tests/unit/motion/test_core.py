@@ -9,9 +9,10 @@ import pytest
 
 from bus_schema.messages import MotionGoal, MotionStop
 from handover_model import baxter, scene
-from services.motion.core import MotionController, arm_positions_from
+from services.motion.core import MotionController
 from services.motion.errors import MotionError
 from services.motion.ik import UPRIGHT_ROTATION, rotation_error_rad
+from services.motion.joint_state import arm_positions_from
 from services.motion.preview import preview
 
 HOME = np.array(baxter.RIGHT_ARM_HOME_RAD)
