@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass
 
 from services.runtime.logs import RateLimitedLog
@@ -93,8 +93,17 @@ class RateLoop:
         self._clock = clock
         self._wait: WaitFn = wait if wait is not None else stop_event.wait
         self._urgent = urgent
+        self._rest_until_s: float | None = None
         self._wake_source = wake_source
         self._overrun_log = RateLimitedLog(log, OVERRUN_LOG_PERIOD_S)
+
+    def rest_until(self, deadline_s: float) -> None:
+        """Hold the next grid tick back until `deadline_s` (monotonic s) at the earliest: a
+        loop with nothing to do (motion holding still) ticks only when it next must. Asked for
+        again in each tick that should rest. An urgent tick still runs at once, and ends the
+        rest unless that tick asks for it again; the grid then continues from the later of
+        the two deadlines."""
+        self._rest_until_s = deadline_s
 
     def __iter__(self) -> Iterator[int]:
         period = self.period_s
@@ -105,6 +114,7 @@ class RateLoop:
             if lateness > stats.worst_lateness_s:
                 stats.worst_lateness_s = lateness
             self.urgent_tick = False
+            self._rest_until_s = None
             yield stats.ticks + stats.urgent_ticks
             stats.ticks += 1
             next_deadline += period
@@ -112,32 +122,48 @@ class RateLoop:
             if now > next_deadline:
                 next_deadline = self._skip_missed(next_deadline, now)
                 continue
-            for _ in self._sleep_until(next_deadline):
-                index = stats.ticks + stats.urgent_ticks
-                stats.urgent_ticks += 1
-                self.urgent_tick = True
-                yield index
+            next_deadline = yield from self._sleep_until(next_deadline)
 
-    def _sleep_until(self, deadline_s: float) -> Iterator[None]:
-        """Sleep until `deadline_s` (monotonic s) or a stop; yields once for an urgent extra tick
-        (at most once)."""
+    def _take_rest(self, grid_deadline_s: float) -> float | None:
+        """The rest deadline the last tick asked for (not before `grid_deadline_s`), or None."""
+        rest, self._rest_until_s = self._rest_until_s, None
+        return None if rest is None else max(grid_deadline_s, rest)
+
+    def _sleep_until(self, grid_deadline_s: float) -> Generator[int, None, float]:
+        """Sleep until the grid deadline (or the rest deadline) or a stop; yields an urgent extra
+        tick's index at most once. Returns the deadline slept to: the next grid tick's."""
+        rest = self._take_rest(grid_deadline_s)
         extra_allowed = self._urgent is not None
         while not self.stop_event.is_set():
+            deadline_s = grid_deadline_s if rest is None else rest
             remaining = deadline_s - self._clock()
             if remaining <= 0.0:
-                return
+                break
             if not extra_allowed:
                 self._wait(remaining)
                 continue
             assert self._wake_source is not None and self._urgent is not None
             self._wake_source(remaining)
             if self.stop_event.is_set():
-                return
+                break
             if self._clock() < deadline_s:
                 self.stats.wakeups += 1
             if self._urgent():
                 extra_allowed = False
-                yield
+                index = self.stats.ticks + self.stats.urgent_ticks
+                self.stats.urgent_ticks += 1
+                self.urgent_tick = True
+                yield index
+                was_resting, rest = rest is not None, self._take_rest(grid_deadline_s)
+                if was_resting and rest is None:  # the rest is over: back to the grid's next deadline
+                    grid_deadline_s = self._first_grid_deadline_after(grid_deadline_s, self._clock())
+        return grid_deadline_s if rest is None else rest
+
+    def _first_grid_deadline_after(self, deadline_s: float, now_s: float) -> float:
+        """The first deadline of the grid through `deadline_s` that is later than `now_s` (s)."""
+        if now_s < deadline_s:
+            return deadline_s
+        return deadline_s + (int((now_s - deadline_s) // self.period_s) + 1) * self.period_s
 
     def _skip_missed(self, next_deadline_s: float, now_s: float) -> float:
         """A tick's work ran past `next_deadline_s` (monotonic s): count the overrun and the

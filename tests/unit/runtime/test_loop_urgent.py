@@ -146,3 +146,54 @@ def test_an_urgent_predicate_needs_a_wake_source(clock):
     node = ScriptedNode(clock)
     with pytest.raises(ValueError, match="wake source"):
         RateLoop(50.0, node.stop_event, urgent=lambda: True)
+
+
+def test_a_resting_loop_ticks_only_when_its_rest_ends(clock):
+    # 100 Hz grid; every tick asks to rest 50 ms (motion holding still): ticks 50 ms apart,
+    # no overrun counted for the grid deadlines it rested over.
+    node = ScriptedNode(clock)
+    loop = _urgent_loop(node, clock, 100.0, lambda: False)
+    times = []
+    for _tick in loop:
+        times.append(clock.now_s)
+        loop.rest_until(clock.now_s + 0.05)
+        if len(times) == 4:
+            node.stop_event.set()
+    assert times == pytest.approx([100.0, 100.05, 100.10, 100.15])
+    assert loop.stats.overruns == 0 and loop.stats.skipped == 0
+
+
+def test_an_urgent_tick_ends_the_rest_and_the_grid_resumes_without_an_overrun(clock):
+    # Resting from t = 100 s until 100.05 s; a goal arrives at 100.032 s: an extra tick at
+    # once, which does not rest again (the arm moves): the next grid ticks follow at 100 Hz
+    # from the first grid deadline after it (100.04, 100.05, ...), with no overrun.
+    node = ScriptedNode(clock, [(100.032, True)])
+    loop = _urgent_loop(node, clock, 100.0, lambda: node.stop_pending)
+    ticks = []
+    for _tick in loop:
+        ticks.append((loop.urgent_tick, clock.now_s))
+        if loop.urgent_tick:
+            node.stop_pending = False
+        elif len(ticks) == 1:
+            loop.rest_until(clock.now_s + 0.05)
+        if len(ticks) == 5:
+            node.stop_event.set()
+    assert ticks == [(False, pytest.approx(100.0)), (True, pytest.approx(100.032)),
+                     (False, pytest.approx(100.04)), (False, pytest.approx(100.05)),
+                     (False, pytest.approx(100.06))]
+    assert loop.stats.overruns == 0
+
+
+def test_an_urgent_tick_that_rests_again_keeps_resting(clock):
+    # A stop while holding still: the extra tick runs and asks to rest again.
+    node = ScriptedNode(clock, [(100.02, True)])
+    loop = _urgent_loop(node, clock, 100.0, lambda: node.stop_pending)
+    ticks = []
+    for _tick in loop:
+        ticks.append((loop.urgent_tick, clock.now_s))
+        node.stop_pending = False
+        loop.rest_until(clock.now_s + 0.05)
+        if len(ticks) == 3:
+            node.stop_event.set()
+    assert ticks == [(False, pytest.approx(100.0)), (True, pytest.approx(100.02)),
+                     (False, pytest.approx(100.07))]
