@@ -19,7 +19,9 @@ from services.runtime.liveliness import LivelinessWatcher
 from services.runtime.node import heartbeat_period_s
 from services.runtime.sched import MAX_EXCUSED_S, ServiceStarvation, delivery_pids
 from services.supervisor.config import SupervisorConfig
-from services.supervisor.core import Actions, Sequencer, Snapshot, TargetFilter
+from services.supervisor.core import Sequencer
+from services.supervisor.targets import TargetFilter
+from services.supervisor.tick_io import Actions, Snapshot
 from services.supervisor.truth import outcome_from_truth, simulated_robot
 from services.supervisor.watchdog import Watchdog, judging_for_beats, resolve_heartbeat_timeout_s
 
