@@ -16,8 +16,10 @@ from bus_schema.messages import (
     WristWrench,
 )
 from services.supervisor.config import SupervisorConfig, parse_config
-from services.supervisor.core import Sequencer, Snapshot, TargetFilter
+from services.supervisor.core import Sequencer
 from services.supervisor.errors import SupervisorConfigError
+from services.supervisor.targets import TargetFilter
+from services.supervisor.tick_io import Snapshot
 
 H = {"seq": 0, "stamp_ns": 0, "source": "test"}
 HOME = [0.0] * 7
