@@ -71,16 +71,21 @@ class RateLoop:
         urgent: called after each early wake; True runs an extra tick. None: the grid only.
         wake_source: wait(timeout_s) that also returns when something arrives; required with
             `urgent`.
+        urgent_per_period: most urgent ticks between two grid ticks (default 1); None: every
+            early wake that `urgent()` accepts runs one (a loop that must act on each message,
+            as the supervisor's release interrupt does).
 
     Attributes:
-        period_s: the grid's period, s.
+        period_s: the grid's period, s; a tick may change it (the supervisor ticks slower
+            once its last episode ended), the next deadline follows the new period.
         stats: the loop's `LoopStats`.
         urgent_tick: the tick just yielded is an urgent extra tick.
     """
 
     def __init__(self, rate_hz: float, stop_event: threading.Event, name: str = "loop", *,
                  clock: Callable[[], float] = time.monotonic, wait: WaitFn | None = None,
-                 urgent: Callable[[], bool] | None = None, wake_source: WaitFn | None = None) -> None:
+                 urgent: Callable[[], bool] | None = None, wake_source: WaitFn | None = None,
+                 urgent_per_period: int | None = 1) -> None:
         if not rate_hz > 0:
             raise ValueError(f"loop rate must be > 0 Hz, got {rate_hz}")
         if urgent is not None and wake_source is None:
@@ -93,6 +98,7 @@ class RateLoop:
         self._clock = clock
         self._wait: WaitFn = wait if wait is not None else stop_event.wait
         self._urgent = urgent
+        self._urgent_per_period = urgent_per_period
         self._rest_until_s: float | None = None
         self._wake_source = wake_source
         self._overrun_log = RateLimitedLog(log, OVERRUN_LOG_PERIOD_S)
@@ -106,7 +112,6 @@ class RateLoop:
         self._rest_until_s = deadline_s
 
     def __iter__(self) -> Iterator[int]:
-        period = self.period_s
         stats = self.stats
         next_deadline = self._clock()
         while not self.stop_event.is_set():
@@ -117,7 +122,7 @@ class RateLoop:
             self._rest_until_s = None
             yield stats.ticks + stats.urgent_ticks
             stats.ticks += 1
-            next_deadline += period
+            next_deadline += self.period_s
             now = self._clock()
             if now > next_deadline:
                 next_deadline = self._skip_missed(next_deadline, now)
@@ -133,23 +138,24 @@ class RateLoop:
         """Sleep until the grid deadline (or the rest deadline) or a stop; yields an urgent extra
         tick's index at most once. Returns the deadline slept to: the next grid tick's."""
         rest = self._take_rest(grid_deadline_s)
-        extra_allowed = self._urgent is not None
+        extra_left = 0 if self._urgent is None else self._urgent_per_period
         while not self.stop_event.is_set():
             deadline_s = grid_deadline_s if rest is None else rest
             remaining = deadline_s - self._clock()
             if remaining <= 0.0:
                 break
-            if not extra_allowed:
+            if extra_left == 0:
                 self._wait(remaining)
                 continue
             assert self._wake_source is not None and self._urgent is not None
             self._wake_source(remaining)
             if self.stop_event.is_set():
                 break
-            if self._clock() < deadline_s:
-                self.stats.wakeups += 1
+            if self._clock() >= deadline_s:
+                break  # the deadline came: the grid tick takes whatever arrived
+            self.stats.wakeups += 1
             if self._urgent():
-                extra_allowed = False
+                extra_left = None if extra_left is None else extra_left - 1
                 index = self.stats.ticks + self.stats.urgent_ticks
                 self.stats.urgent_ticks += 1
                 self.urgent_tick = True

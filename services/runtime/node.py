@@ -307,14 +307,17 @@ class ServiceNode:
         token first if `ready()` was not called)."""
         yield from self.rate_loop(rate_hz)
 
-    def rate_loop(self, rate_hz: float, urgent: Callable[[], bool] | None = None) -> RateLoop:
+    def rate_loop(self, rate_hz: float, urgent: Callable[[], bool] | None = None,
+                  urgent_per_period: int | None = 1) -> RateLoop:
         """The `RateLoop` at `rate_hz` (Hz) behind `loop`, for a caller that reads its period or
-        stats. `urgent`: asked whenever a subscription with ``wake=True`` wakes the loop; True
-        runs an extra tick at once (at most one per period). Declares the liveliness token
-        first if `ready()` was not called."""
+        stats. `urgent`: asked whenever a subscription with ``wake=True`` (or `wake_up`) wakes
+        the loop; True runs an extra tick at once, at most `urgent_per_period` of them between
+        two grid ticks (None: no limit). Declares the liveliness token first if `ready()` was
+        not called."""
         self.ready()
         loop = RateLoop(rate_hz, self.stop_event, name=f"{self.name} {rate_hz:g} Hz loop",
-                        urgent=urgent, wake_source=self.wait if urgent is not None else None)
+                        urgent=urgent, wake_source=self.wait if urgent is not None else None,
+                        urgent_per_period=urgent_per_period)
         self.loops.append(loop)
         return loop
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 import logging
 import queue
 import time
+from collections.abc import Callable
 from typing import Any
 
 from bus_schema import topics
@@ -24,7 +25,7 @@ from services.runtime.pubsub import TypedSubscription
 from services.runtime.sched import ServiceStarvation, delivery_pids
 from services.supervisor.config import SupervisorConfig
 from services.supervisor.health import SELF_STALL_SETTLE_S, HealthWatch
-from services.supervisor.supervision import Supervision, next_deadline_s
+from services.supervisor.supervision import Supervision
 from services.supervisor.tick_io import Actions
 from services.supervisor.truth import outcome_from_truth, simulated_robot
 
@@ -104,6 +105,27 @@ class _Inputs:
                 sup.take(name, sub.topic.suffix, rx.msg, rx.rx_monotonic)
 
 
+
+def _watch(sup: Supervision, health: HealthWatch, inputs: _Inputs, now: float,
+           act: Callable[[Actions, float], None], excuse_log: RateLimitedLog, stall_log: RateLimitedLog) -> float:
+    """Take the watchdog's inputs in, note a late wake of this loop (and let a starved one
+    settle), and act on every fault the health watch reports. Returns the time now, s."""
+    inputs.take(sup)
+    stall = sup.woke(now)
+    if stall is not None:
+        stall_log.warning("stall", stall.message(), late_ms=stall.late_ms)
+        if stall.settle:
+            time.sleep(SELF_STALL_SETTLE_S)
+            inputs.take(sup)
+            now = time.monotonic()
+    reports = health.check(now)
+    for service, why in health.excused:
+        excuse_log.info(service, f"{service}: {why}")
+    for report in reports:
+        log.warning("service fault", extra=kv(**report.log_fields()))
+        act(sup.sequencer.on_fault(now, report.fault.text(), report.critical), now)
+    return now
+
 def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
     """Run the supervisor until SIGINT/SIGTERM (or, with a finite episode count, until the
     last episode ended and the launcher stops it). Returns the exit code."""
@@ -125,36 +147,24 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
         watcher = LivelinessWatcher(node.session, profile.prefix, on_change=on_liveliness)
         node.ready()
         sup = Supervision(config, health, RIGHT_ARM_HOME_RAD, time.monotonic())
-        seq, next_tick_s = sup.sequencer, sup.started_s
+        seq = sup.sequencer
+        # Every wake-up (a release, any watched input, a liveliness change) runs an extra tick
+        # at once for the release interrupt and the watchdog; the sequencer ticks on the grid.
+        loop = node.rate_loop(config.rate_hz, urgent=lambda: True, urgent_per_period=None)
 
         def act(actions: Actions, now_s: float) -> None:
             outlets.put(actions, now_s, sup, truth)
 
         try:
-            while not node.should_stop:
-                node.wait(max(0.0, next_tick_s - time.monotonic()))
+            for _tick in loop:
                 now = time.monotonic()
                 # 1. The release interrupt first.
                 for rx in releases.drain():
                     act(seq.on_release(rx.rx_monotonic, f"release event from {rx.msg.source}"), now)
                 # 2. Watchdog inputs; a loop that was itself starved takes queued messages in first.
-                inputs.take(sup)
-                stall = sup.woke(now)
-                if stall is not None:
-                    stall_log.warning("stall", stall.message(), late_ms=stall.late_ms)
-                    if stall.settle:
-                        time.sleep(SELF_STALL_SETTLE_S)
-                        inputs.take(sup)
-                        now = time.monotonic()
-                reports = health.check(now)
-                for service, why in health.excused:
-                    excuse_log.info(service, f"{service}: {why}")
-                for report in reports:
-                    log.warning("service fault", extra=kv(**report.log_fields()))
-                    act(seq.on_fault(now, report.fault.text(), report.critical), now)
-                if now < next_tick_s:
+                now = _watch(sup, health, inputs, now, act, excuse_log, stall_log)
+                if loop.urgent_tick:
                     continue
-                next_tick_s = next_deadline_s(next_tick_s, now, sup.period_s())
                 # 3. Start when everyone is up, 4. the sequencer's tick.
                 start, missing = sup.start(now)
                 if start is not None:
@@ -162,6 +172,7 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
                 if missing:
                     log.error("start failed", extra=kv(missing=missing))
                 act(sup.tick(now), now)
+                loop.period_s = sup.period_s()
         finally:
             watcher.undeclare()
         log.info("supervisor stopped", extra=kv(episodes=seq.episodes_done, phase=seq.phase))

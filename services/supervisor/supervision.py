@@ -33,15 +33,6 @@ STATE_REASON_CHARS = 512
 STATE_ELAPSED_MAX_S = 86400.0
 
 
-def next_deadline_s(deadline_s: float, now_s: float, period_s: float) -> float:
-    """The tick deadline after `deadline_s` (s), `period_s` (s) on; a loop that is already
-    past it (late) waits one whole period from `now_s` instead of bursting to catch up."""
-    deadline_s += period_s
-    if deadline_s < now_s:
-        deadline_s = now_s + period_s
-    return deadline_s
-
-
 class Supervision:
     """The sequencer, its snapshot and the health watch, between two bus wake-ups.
 

@@ -197,3 +197,31 @@ def test_an_urgent_tick_that_rests_again_keeps_resting(clock):
             node.stop_event.set()
     assert ticks == [(False, pytest.approx(100.0)), (True, pytest.approx(100.02)),
                      (False, pytest.approx(100.07))]
+
+
+def test_without_a_limit_every_wake_runs_an_extra_tick(clock):
+    # The supervisor's loop: a release, then a heartbeat 2 ms later, both within one 10 ms
+    # period: each is acted on at once, and the grid is kept.
+    node = ScriptedNode(clock, [(100.003, True), (100.005, True)])
+    loop = RateLoop(100.0, node.stop_event, clock=clock.monotonic, urgent=lambda: True,
+                    wake_source=node.wait, urgent_per_period=None)
+    ticks = []
+    for _tick in loop:
+        ticks.append((loop.urgent_tick, clock.now_s))
+        if len(ticks) == 4:
+            node.stop_event.set()
+    assert ticks == [(False, pytest.approx(100.0)), (True, pytest.approx(100.003)),
+                     (True, pytest.approx(100.005)), (False, pytest.approx(100.01))]
+
+
+def test_a_tick_may_change_the_period(clock):
+    node = ScriptedNode(clock)
+    loop = _urgent_loop(node, clock, 100.0, None)
+    times = []
+    for _tick in loop:
+        times.append(clock.now_s)
+        if len(times) == 2:
+            loop.period_s = 0.025  # the supervisor once its last episode has ended
+        if len(times) == 4:
+            node.stop_event.set()
+    assert times == pytest.approx([100.0, 100.01, 100.035, 100.06])

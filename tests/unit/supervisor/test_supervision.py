@@ -13,7 +13,6 @@ from services.supervisor.supervision import (
     STATE_EARLY_S,
     STATE_PERIOD_S,
     Supervision,
-    next_deadline_s,
 )
 from services.supervisor.tick_io import Actions
 
@@ -30,11 +29,6 @@ def supervision(**config):
 def all_alive(sup, at_s):
     for name in SERVICES:
         sup.health.liveliness(name, True, at_s)
-
-
-def test_the_next_deadline_is_one_period_on_and_a_late_loop_does_not_burst():
-    assert next_deadline_s(10.0, 10.001, 0.01) == pytest.approx(10.01)
-    assert next_deadline_s(10.0, 10.5, 0.01) == pytest.approx(10.51)  # late: one period from now
 
 
 def test_the_tick_slows_down_only_once_the_last_episode_has_ended():
