@@ -88,7 +88,6 @@ class ArmLoop:
         self.newest_stop: Received[Any] | None = None
         self.episode_id: int | None = None
         self._reject_log = RateLimitedLog(log, REJECT_LOG_PERIOD_S)
-        self._new_episode = getattr(backend, "new_episode", None)
         self._last_s = start_s
         self._was_holding = True
 
@@ -117,7 +116,7 @@ class ArmLoop:
             "effort_nm": reading.effort_nm.tolist(),
             "holding": holding,
             "backend": backend.name,
-            "enabled": bool(getattr(backend, "enabled", True)),
+            "enabled": bool(backend.enabled),
         }
 
     def publish_extras(self, publish: PublishFn, now_s: float) -> None:
@@ -167,9 +166,8 @@ class ArmLoop:
         resets a simulated scene."""
         if self.episode_id is not None and episode_id != self.episode_id:
             self.brake.new_episode()
-            if self._new_episode is not None:
-                log.info("new episode: scene reset", extra=kv(episode_id=episode_id))
-                self._new_episode()
+            log.info("new episode", extra=kv(episode_id=episode_id, backend=self.backend.name))
+            self.backend.new_episode()
         self.episode_id = episode_id
 
     def _take_command(self, rx: Received[Any], current_rad: np.ndarray) -> None:

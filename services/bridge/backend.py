@@ -78,6 +78,14 @@ class Backend(Protocol):
     def gripper_command(self, grip_force_n: float) -> None:
         """Apply a grip-force command (N); backends without a gripper ignore it."""
 
+    @property
+    def enabled(self) -> bool:
+        """The robot reports that it can move (hardware: enabled and not stopped)."""
+
+    def new_episode(self) -> None:
+        """The supervisor started a new episode: reset what a simulated scene keeps per episode
+        (hardware: nothing to do)."""
+
     def close(self) -> None:
         """Release the robot."""
 
@@ -168,6 +176,15 @@ class SimBackend:
         )
 
     def publish_extras(self, publish: PublishFn) -> None:
+        return None
+
+    @property
+    def enabled(self) -> bool:
+        """A simulated arm can always move."""
+        return True
+
+    def new_episode(self) -> None:
+        """The bare arm keeps nothing per episode (the handover scene does)."""
         return None
 
     def gripper_command(self, grip_force_n: float) -> None:

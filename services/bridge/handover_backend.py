@@ -69,7 +69,7 @@ class HandoverSimBackend(SimBackend):
         self.grip_command_n = float(grip_force_n)
 
     def new_episode(self) -> None:
-        """Reset the scene at the next step (called from the bridge loop)."""
+        """Reset the scene (object back on the table) at the next step."""
         self._reset_pending = True
 
     def step(self, dt_s: float) -> None:

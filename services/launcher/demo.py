@@ -16,7 +16,7 @@ from ruckig import InputParameter, Result, Ruckig, Trajectory
 
 from bus_schema import topics
 from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS, arm_model
-from services.runtime import ServiceNode
+from services.runtime import RateLoop, ServiceNode
 
 log = logging.getLogger(__name__)
 
@@ -97,9 +97,7 @@ def run_demo(node: ServiceNode, abort: callable, settle_s: float = 0.6,
     for index, goal in enumerate(waypoints):
         trajectory = plan_segment(current, goal)
         log.info("demo segment %d/%d: %.2f s", index + 1, len(waypoints), trajectory.duration)
-        seg_start = time.monotonic()
-        tick = 0
-        while True:
+        for tick in RateLoop(COMMAND_RATE_HZ, node.stop_event, name="demo command"):
             t = min(tick * period, trajectory.duration)
             position, _velocity, _acc = trajectory.at_time(t)
             commands.put(names=list(RIGHT_ARM_JOINTS), position_rad=list(position), goal_id=f"demo-{index}")
@@ -119,15 +117,14 @@ def run_demo(node: ServiceNode, abort: callable, settle_s: float = 0.6,
                 return result
             if t >= trajectory.duration:
                 break
-            tick += 1
-            node.stop_event.wait(max(0.0, seg_start + tick * period - time.monotonic()))
         current = goal
     # Keep commanding the final posture while the servo settles.
     settle_end = time.monotonic() + settle_s
-    while time.monotonic() < settle_end and not node.should_stop:
+    for _tick in RateLoop(COMMAND_RATE_HZ, node.stop_event, name="demo settle"):
+        if time.monotonic() >= settle_end:
+            break
         commands.put(names=list(RIGHT_ARM_JOINTS), position_rad=list(current), goal_id="demo-settle")
         result.commands_sent += 1
-        node.stop_event.wait(period)
     result.duration_s = time.monotonic() - t_start
     latest = states.latest()
     result.final_error_rad = float(np.max(np.abs(np.array(latest.msg.position_rad) - current)))

@@ -31,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     notes = RateLimitedLog(log, 2.0)
     with ServiceNode("planner", profile) as node:
         pub = node.publisher(T.TRANSFER)
-        # Read at the loop's own pace (`WAIT_S`): a 30 Hz human state need not wake it, the
+        # Read at the loop's own pace (every `WAIT_S`): a 30 Hz human state need not wake it, the
         # plan goes out at most 50 ms after the newest estimate (issue 16: two thread wakes a
         # message fewer).
         human_sub = node.subscribe(T.HUMAN, queue_size=4, wake=False)
@@ -39,8 +39,7 @@ def run(args: argparse.Namespace) -> int:
         log.info("planner ready: waiting for %s", T.HUMAN.key(profile.prefix))
         latest: dict | None = None
         last_put_s = 0.0
-        while not node.should_stop:
-            node.wait(WAIT_S)
+        for _tick in node.loop(1.0 / WAIT_S):
             human = human_sub.latest()
             obj = object_sub.latest()
             fields, note = service.step(

@@ -250,8 +250,10 @@ class ServiceNode:
         late_log = RateLimitedLog(log, 5.0)
         with WakeSampler() as sampler:  # opened here: it samples this thread
             previous = sampler.raw()
-            next_s = previous.monotonic_s + period_s
-            while not self.stop_event.wait(max(0.0, next_s - time.monotonic())):
+            beats = RateLoop(1.0 / period_s, self.stop_event, name=f"{self.name} heartbeat")
+            for tick in beats:
+                if tick == 0:  # the loop's first tick is at once; the first beat is a period on
+                    continue
                 now = sampler.raw()
                 self._beat()
                 lateness_s = now.monotonic_s - previous.monotonic_s - period_s
@@ -259,9 +261,6 @@ class ServiceNode:
                     report = late_wake_report(previous.parsed(), now.parsed(), period_s)
                     if report is not None:  # a diagnostic: a silence that matters is the supervisor's warning
                         late_log.info("late heartbeat", f"{self.name}: {report}")
-                next_s += period_s
-                if next_s < now.monotonic_s:  # late: restart the grid from now, no burst
-                    next_s = now.monotonic_s + period_s
                 previous = now
 
     def heartbeat(self) -> None:

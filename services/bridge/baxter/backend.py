@@ -338,6 +338,10 @@ class BaxterBackend:
         """The robot reports enabled and not stopped."""
         return not core.robot_state_problem(self._robot_state.latest)
 
+    def new_episode(self) -> None:
+        """A new episode changes nothing on the robot."""
+        return None
+
     def stats(self) -> dict[str, Any]:
         return {"sent": dict(self.sent), "clamped": self.clamped, "skipped_stale": self.skipped_stale,
                 "rejected": {k.key: k.rejected for k in (self._joint_states, self._robot_state,
