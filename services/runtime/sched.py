@@ -235,12 +235,12 @@ class StarvationJudge:
         if not machine:
             return None
         since_s = self._since.get(pid)
-        machine = None if since_s is None else self.machine.judge(since_s, now_s)
-        if machine is None:
+        judged = None if since_s is None else self.machine.judge(since_s, now_s)
+        if judged is None:
             self._machine_seen.pop(pid, None)
             return None
-        self._machine_seen[pid] = machine[1]
-        return machine[1] if machine[0] else None
+        self._machine_seen[pid] = judged[1]
+        return judged[1] if judged[0] else None
 
     def explain(self, pid: int) -> str:
         """The last judgement of `pid`, for the line that reports a silence not excused."""
