@@ -1,5 +1,6 @@
 """`handover-study bench`: the Monte-Carlo benchmark of the gripper's release controllers
-(`services.studies.gripper.benchmark` holds the library: episodes, statistics, tables, plots).
+(`services.studies.gripper.benchmark` runs the episodes and computes the statistics,
+`services.studies.gripper.bench_report` writes the tables and plots).
 
     handover-study bench                                     # CI-sized: 200 episodes each
     handover-study bench -n 5000 --seed 1 --controllers FS1 HI SG --attribute --out out/gripper_bench_v2
@@ -16,19 +17,16 @@ from pathlib import Path
 
 from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
+from services.studies.gripper.bench_report import attribution_table, markdown_table, write_csv, write_plots
 from services.studies.gripper.benchmark import (
     DEFAULT_CONTROLLERS,
     REFERENCES,
     TUNING_SEED,
-    attribution_table,
     drop_attribution,
-    markdown_table,
     paired_drop_test,
     paired_overshoot_rows,
     run_benchmark,
     summarise,
-    write_csv,
-    write_plots,
 )
 
 

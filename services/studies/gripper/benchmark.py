@@ -16,6 +16,8 @@ Per controller:
 - mode chatter: mean number of ground-truth mode switches per episode;
 - the drop rate per receiver behaviour.
 
+The tables, CSV and plots of a run: `services.studies.gripper.bench_report`.
+
 Usage:
     handover-study bench                      # CI-sized: 200 episodes each
     handover-study bench -n 10000 --workers 2 --out out/gripper_bench
@@ -24,14 +26,12 @@ Usage:
 
 from __future__ import annotations
 
-import csv
 import logging
 import math
 import multiprocessing as mp
 import os
 import time
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 from scipy import stats
@@ -257,22 +257,6 @@ def drop_attribution(result: BenchResult) -> list[dict]:
     return rows
 
 
-def attribution_table(rows: list[dict]) -> str:
-    """Markdown table of `drop_attribution` (rates in % of all episodes)."""
-    lines = ["| controller | drops % | unavoidable % | actuator-limited % | receiver let go % "
-             "| controller drops % [95% CI] | controller drops: taking / dropping / hesitating / bumping % |",
-             "|" + "---|" * 7]
-    for r in rows:
-        lo, hi = r["controller_drop_ci"]
-        lines.append(
-            f"| {r['controller']} | {100 * r['drop_rate']:.1f} | {100 * r['unavoidable_rate']:.1f} "
-            f"| {100 * r['actuator_limited_rate']:.1f} | {100 * r['receiver_let_go_rate']:.1f} "
-            f"| {100 * r['controller_drop_rate']:.1f} [{100 * lo:.1f}, {100 * hi:.1f}] | "
-            + " / ".join(_f(100 * r[f'controller_drop_rate_{k}'], 1)
-                         for k in ('taking', 'dropping', 'hesitating', 'bumping')) + " |")
-    return "\n".join(lines)
-
-
 def paired_overshoot_rows(result: BenchResult, against: str = "SG") -> list[dict]:
     """Force overshoot of `against` and every other controller on the taking episodes both
     handed over (`services.studies.gripper.attribution.paired_overshoot`)."""
@@ -294,109 +278,3 @@ def paired_drop_test(result: BenchResult, a: str, b: str) -> dict:
     only_a, only_b = int((da & ~db).sum()), int((~da & db).sum())
     p = stats.binomtest(only_a, only_a + only_b).pvalue if only_a + only_b else 1.0
     return {"a": a, "b": b, "only_a_drops": only_a, "only_b_drops": only_b, "p_value": float(p)}
-
-
-# --------------------------------------------------------------------------- reports
-
-
-def _f(v: float, digits: int = 2) -> str:
-    return "–" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:.{digits}f}"
-
-
-def markdown_table(rows: list[ControllerStats]) -> str:
-    """The headline table (rates in %)."""
-    head = ("| controller | drop rate % [95% CI] | release success % (taking) [95% CI] | overshoot median / p95 N "
-            "| release time median s | mode switches / ep | drops: taking / dropping / hesitating / bumping % |")
-    lines = [head, "|" + "---|" * 7]
-    for s in rows:
-        b = s.drop_rate_by_behaviour
-        lines.append(
-            f"| {s.controller} | {100 * s.drop_rate:.1f} [{100 * s.drop_ci[0]:.1f}, {100 * s.drop_ci[1]:.1f}] "
-            f"| {100 * s.release_success_rate:.1f} [{100 * s.release_success_ci[0]:.1f}, "
-            f"{100 * s.release_success_ci[1]:.1f}] | {_f(s.overshoot_median_n)} / {_f(s.overshoot_p95_n)} "
-            f"| {_f(s.release_time_median_s, 3)} | {_f(s.mode_switches_mean)} "
-            f"| {' / '.join(_f(100 * b[k], 1) for k in ('taking', 'dropping', 'hesitating', 'bumping'))} |")
-    return "\n".join(lines)
-
-
-def write_csv(rows: list[ControllerStats], path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    dicts = [r.row() for r in rows]
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(dicts[0]))
-        writer.writeheader()
-        writer.writerows(dicts)
-    return path
-
-
-def _binned_drop(result: BenchResult, name: str, values: np.ndarray, edges: np.ndarray):
-    idx = np.clip(np.digitize(values, edges) - 1, 0, len(edges) - 2)
-    d = result.outcomes[name].dropped
-    rate = np.array([d[idx == i].mean() if np.any(idx == i) else np.nan for i in range(len(edges) - 1)])
-    return 0.5 * (edges[:-1] + edges[1:]), rate
-
-
-def write_plots(result: BenchResult, rows: list[ControllerStats], out_dir: Path,
-                prefix: str = "gripper_bench") -> list[Path]:
-    """Drop rate with CIs per controller; drop rate vs mass, friction and pull angle;
-    overshoot distributions (taking episodes)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    paths = []
-    names = [r.controller for r in rows]
-    fig, ax = plt.subplots(1, 2, figsize=(11, 4))
-    x = np.arange(len(rows))
-    for k, (attr, ci, title) in enumerate((("drop_rate", "drop_ci", "drop rate (all episodes)"),
-                                            ("release_success_rate", "release_success_ci",
-                                             "release success (taking episodes)"))):
-        val = np.array([100 * getattr(r, attr) for r in rows])
-        lo = np.array([100 * getattr(r, ci)[0] for r in rows])
-        hi = np.array([100 * getattr(r, ci)[1] for r in rows])
-        ax[k].bar(x, val, color="#6a8fc8")
-        ax[k].errorbar(x, val, yerr=[val - lo, hi - val], fmt="none", ecolor="k", capsize=4)
-        ax[k].set_xticks(x, names, rotation=30, ha="right")
-        ax[k].set_ylabel("%")
-        ax[k].set_title(f"{title}, 95 % Wilson CI")
-    fig.suptitle(f"{rows[0].episodes} episodes per controller, seed {result.seed}")
-    fig.tight_layout()
-    p = out_dir / f"{prefix}_rates.png"
-    fig.savefig(p, dpi=110)
-    plt.close(fig)
-    paths.append(p)
-
-    fig, ax = plt.subplots(1, 3, figsize=(14, 4), sharey=True)
-    for name in names:
-        for k, (vals, edges, label) in enumerate((
-                (result.mass_kg, np.linspace(0.05, 0.6, 12), "object mass, kg"),
-                (result.mu_static, np.linspace(0.2, 0.9, 8), "μ_s"),
-                (np.degrees(result.pull_angle_rad), np.linspace(-45, 45, 10), "pull angle φ, ° (> 0 down)"))):
-            c, r = _binned_drop(result, name, vals, edges)
-            ax[k].plot(c, 100 * r, marker="o", label=name)
-            ax[k].set_xlabel(label)
-    ax[0].set_ylabel("drop rate, %")
-    ax[2].legend(fontsize=8)
-    fig.suptitle("where the controllers drop objects (all behaviours)")
-    fig.tight_layout()
-    p = out_dir / f"{prefix}_drop_vs_params.png"
-    fig.savefig(p, dpi=110)
-    plt.close(fig)
-    paths.append(p)
-
-    fig, ax = plt.subplots(figsize=(8, 4))
-    take = result.behaviour == 0
-    data = [result.outcomes[n].force_overshoot_n[take] for n in names]
-    ax.boxplot(data, whis=(5, 95), showfliers=False)
-    ax.set_xticks(np.arange(1, len(names) + 1), names, rotation=30, ha="right")
-    ax.set_ylabel("force overshoot, N")
-    ax.set_title("receiver force before release (taking episodes; whiskers p5–p95)")
-    fig.tight_layout()
-    p = out_dir / f"{prefix}_overshoot.png"
-    fig.savefig(p, dpi=110)
-    plt.close(fig)
-    paths.append(p)
-    return paths
-

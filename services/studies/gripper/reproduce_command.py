@@ -12,7 +12,8 @@ import sys
 from pathlib import Path
 
 from services.gripper.errors import GripperError
-from services.studies.gripper.reproduce import PRESET_TAGS, claims_table, reproduce
+from services.studies.gripper.claims import claims_table
+from services.studies.gripper.reproduce import PRESET_TAGS, reproduce
 
 DESCRIPTION = "Reproduce thesis Figures 20-23 (thesis model mode) and compare them with the thesis's statements."
 

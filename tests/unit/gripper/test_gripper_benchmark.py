@@ -16,6 +16,7 @@ from robot_sim.contact.receiver import stack_receivers, taking
 from services.gripper.errors import GripperError
 from services.studies.cli import main as study_main
 from services.studies.gripper import benchmark as B
+from services.studies.gripper.bench_report import markdown_table
 from services.studies.gripper.episodes import EpisodeDistribution, EpisodeObjectParams, sample_chunk
 
 
@@ -78,7 +79,7 @@ def test_same_episodes_for_every_controller_and_repeatable():
     t = B.paired_drop_test(r1, "SG", "FS1")
     d_sg, d_fs = r1.outcomes["SG"].dropped, r1.outcomes["FS1"].dropped
     assert t["only_a_drops"] == int((d_sg & ~d_fs).sum()) and t["only_b_drops"] == int((~d_sg & d_fs).sum())
-    assert "| SG |" in B.markdown_table(rows)
+    assert "| SG |" in markdown_table(rows)
 
 
 def test_cli_writes_table_and_csv_and_rejects_bad_input(tmp_path, capsys):

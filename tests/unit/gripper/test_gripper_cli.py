@@ -10,6 +10,7 @@ from services.gripper.controllers.fail_safe import FS_PRESETS
 from services.studies.cli import main
 from services.studies.gripper import analysis as A
 from services.studies.gripper import reproduce
+from services.studies.gripper.claims import claims_table
 
 
 def test_fst_cli_prints_the_library_value(capsys):
@@ -39,7 +40,7 @@ def test_reproduction_writes_recordings_and_table(tmp_path):
     by_thesis = {c.thesis: c for c in claims}
     assert by_thesis["γ = 5 gives F_ST(0) < 1 N"].agree == "yes"
     assert by_thesis["overshoot FS1 < FS3 < FS2"].agree == "yes"
-    table = reproduce.claims_table(claims)
+    table = claims_table(claims)
     assert table.count("\n") == len(claims) + 2
 
 
