@@ -3,7 +3,8 @@
 - the shared contracts (`handover_model`) import neither the services nor the simulator;
 - services other than the bridge and the simulated Kinect never import the simulator
   (`robot_sim`); the offline studies (`services/studies`) may;
-- no service imports a study.
+- no service imports a study;
+- no module over 400 lines, no function over 80.
 """
 
 from __future__ import annotations
@@ -63,3 +64,29 @@ def test_the_shared_contracts_import_neither_services_nor_simulator():
     contracts = sorted((REPO / "handover_model").rglob("*.py"))
     assert contracts, "handover_model/ has no modules"
     assert offenders(contracts, "robot_sim") + offenders(contracts, "services") == []
+
+
+LIBRARY_PACKAGES = ("bus_schema", "handover_model", "services", "robot_sim", "tools")
+MAX_FILE_LINES = 400
+MAX_FUNCTION_LINES = 80
+
+
+def library_files() -> list[Path]:
+    return [p for package in LIBRARY_PACKAGES for p in sorted((REPO / package).rglob("*.py"))]
+
+
+def test_no_module_is_over_400_lines_and_no_function_over_80():
+    """Small modules of one job (docs/testing.md): a module over 400 lines or a function over
+    80 is split by responsibility, not given an exception."""
+    long_files, long_functions = [], []
+    for path in library_files():
+        text = path.read_text()
+        if text.count("\n") > MAX_FILE_LINES:
+            long_files.append(f"{path.relative_to(REPO)}: {text.count(chr(10))} lines")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                lines = node.end_lineno - node.lineno + 1
+                if lines > MAX_FUNCTION_LINES:
+                    long_functions.append(f"{path.relative_to(REPO)}:{node.lineno} {node.name}: {lines} lines")
+    assert len(library_files()) > 200
+    assert long_files == [] and long_functions == []
