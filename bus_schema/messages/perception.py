@@ -4,7 +4,7 @@ z up, m): the skeleton, the depth image, the receiver's state and the object on 
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Literal, get_args
 
 import msgspec
 from msgspec import Meta
@@ -29,23 +29,8 @@ SkeletonJointName = Literal[
     "right_knee",
     "right_foot",
 ]
-SKELETON_JOINTS: tuple[SkeletonJointName, ...] = (
-    "head",
-    "neck",
-    "torso",
-    "left_shoulder",
-    "left_elbow",
-    "left_hand",
-    "right_shoulder",
-    "right_elbow",
-    "right_hand",
-    "left_hip",
-    "left_knee",
-    "left_foot",
-    "right_hip",
-    "right_knee",
-    "right_foot",
-)
+#: The skeleton's joints in message order (the `SkeletonJointName` literal's order).
+SKELETON_JOINTS: tuple[SkeletonJointName, ...] = get_args(SkeletonJointName)
 
 
 class SkeletonJoint(msgspec.Struct, frozen=True, kw_only=True):
