@@ -7,6 +7,7 @@
     handover-study experiment  candidate transfer positions of the thesis's experiment
     handover-study record      one simulated tracker episode to a replay file
     handover-study evaluate    the tracker's hand error against the simulator's truth
+    handover-study crosscheck  the contact plant against MuJoCo, scenario by scenario
 
 None of them needs the bus or a running stack. Exit codes: 0 done, 1 a failure while running,
 2 bad input (one line on stderr).
@@ -28,14 +29,14 @@ PROG = "handover-study"
 
 def _commands() -> list[tuple[str, str, Callable[[argparse.ArgumentParser], None], Callable]]:
     """(name, description, add_arguments, run) of every study command."""
-    from services.studies import figures_command
+    from services.studies import crosscheck_command, figures_command
     from services.studies.gripper import analysis_command, bench_command, reproduce_command
     from services.studies.planner import experiment_command
     from services.studies.tracker import commands as tracker
 
     modules: list[tuple[str, ModuleType]] = [
         ("bench", bench_command), ("reproduce", reproduce_command), ("failsafe", analysis_command),
-        ("figures", figures_command), ("experiment", experiment_command),
+        ("figures", figures_command), ("experiment", experiment_command), ("crosscheck", crosscheck_command),
     ]
     table = [(name, module.DESCRIPTION, module.add_arguments, module.run) for name, module in modules]
     table.append(("record", tracker.RECORD_DESCRIPTION, tracker.add_record_arguments, tracker.run_record))
