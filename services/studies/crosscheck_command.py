@@ -69,6 +69,11 @@ def run(args: argparse.Namespace) -> int:
     summary = summary_table(results)
     print(summary)
     print(f"{len(cases)} cases on both plants in {elapsed:.1f} s")
+    if not args.quick:
+        from robot_sim.contact.crosscheck.diagnostics import diagnostics_lines
+
+        for line in diagnostics_lines():
+            print(line)
     args.table.parent.mkdir(parents=True, exist_ok=True)
     args.table.write_text(summary + "\n\n" + rows_table(results, skip_both_none=False) + "\n", encoding="utf-8")
     written = [args.table, write_csv(results, args.csv)]

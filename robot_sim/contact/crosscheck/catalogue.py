@@ -12,11 +12,12 @@ from dataclasses import replace
 
 from robot_sim.contact.config import GRAVITY_M_S2
 from robot_sim.contact.crosscheck.compare import Case
-from robot_sim.contact.crosscheck.mjcf import MujocoParams
+from robot_sim.contact.crosscheck.mjcf import MUJOCO_DEFAULT_SOLIMP, MujocoParams
 from robot_sim.contact.crosscheck.scenario import Scenario
 from robot_sim.contact.receiver import absent, bumping, dropping, hesitating, taking
 
-__all__ = ["onset_grid", "slide_cases", "receiver_cases", "difference_cases", "all_cases", "quick_cases"]
+__all__ = ["onset_grid", "slide_cases", "receiver_cases", "difference_cases", "mujoco_variants", "all_cases",
+           "quick_cases"]
 
 #: Grip of the slip-onset grid (N): μ F_G exceeds the weight for every mass and μ of the grid.
 ONSET_GRIP_N = 15.0
@@ -37,7 +38,8 @@ def onset_case(mass_kg: float, mu: float, phi_deg: float, support: bool, grip_n:
     onset = base.onset_pull_n(grip_n)
     if not math.isfinite(onset) or onset <= 0.0:
         raise ValueError(f"no slip onset under a pull for M={mass_kg}, mu={mu}, phi={phi_deg}, grip={grip_n}")
-    name = f"M {mass_kg:g} kg, μ {mu:g}, φ {phi_deg:+g}°, {'supported' if support else 'unsupported'}"
+    angle = f"{phi_deg:+g}°".replace("-", "−") if phi_deg else "0°"
+    name = f"M {mass_kg:g} kg, μ {mu:g}, φ {angle}, {'supported' if support else 'unsupported'}"
     return Case(replace(base, name=name, duration_s=ONSET_START_S + onset / ONSET_RATE_N_S + 0.25), group)
 
 
@@ -108,8 +110,8 @@ _MU_K_NOTE = ("ours with its default μ_k = 0.5 < μ_s = 0.6; MuJoCo has one coe
 
 
 def difference_cases() -> list[Case]:
-    """Known differences (expected to disagree: our μ_k < μ_s, a wrong μ in MuJoCo) and
-    MuJoCo-side variants expected to change nothing (a box free to rotate, a finer step)."""
+    """Known differences (expected to disagree: our μ_k < μ_s, a wrong μ in MuJoCo) and the
+    MuJoCo settings tried (`mujoco_variants`)."""
     mu_k = [replace(c, scenario=replace(c.scenario, name=c.scenario.name + ", ours μ_k 0.5", ours_mu_kinetic=0.5),
                     group="μ_k < μ_s (ours)", expect_agree=False, note=_MU_K_NOTE)
             for c in (_slide("2 N along 0°", 2.0), _slide("regrasp at 0.48 s", regrasp_at_s=0.48),
@@ -117,13 +119,33 @@ def difference_cases() -> list[Case]:
     wrong = onset_case(0.2, 0.6, 0.0, False, group="wrong μ in MuJoCo")
     wrong = replace(wrong, scenario=replace(wrong.scenario, name=wrong.scenario.name + ", MuJoCo μ 0.48"),
                     mujoco_mu=0.48, expect_agree=False, note="MuJoCo given μ = 0.8 × 0.6: the check must catch it")
-    variants = []
-    for label, params in (("MuJoCo box free to rotate", MujocoParams(free_rotation=True)),
-                          ("MuJoCo at dt = 0.5 ms", MujocoParams(timestep_s=0.0005))):
-        for c in (_slide("2 N along +30°", 2.0, 30.0), _receiver("taking φ 0°, 10 N", taking(), ((0.0, 10.0),))):
-            variants.append(replace(c, scenario=replace(c.scenario, name=f"{c.scenario.name} ({label})"),
-                                    group=label, mujoco=params))
-    return mu_k + [wrong] + variants
+    return mu_k + [wrong] + mujoco_variants()
+
+
+#: MuJoCo settings tried against the defaults: (group, parameters, expect agreement, note,
+#: on the slide too or only on the dropping receiver).
+_VARIANTS = (
+    ("MuJoCo box free to rotate", MujocoParams(free_rotation=True), True, "", True),
+    ("MuJoCo at dt = 0.5 ms", MujocoParams(timestep_s=0.0005), True, "", True),
+    ("MuJoCo with no-slip solver", MujocoParams(noslip_iterations=2), True, "", True),
+    ("MuJoCo impratio 10", MujocoParams(impratio=10.0), False,
+     "a stuck box creeps faster than the 1 mm/s slip detector near the cone: onset read early", True),
+    ("MuJoCo's default solimp", MujocoParams(solimp=MUJOCO_DEFAULT_SOLIMP), False,
+     "a hard contact chatters while sliding (the pads bounce): the hand-force peak is higher", False),
+)
+
+
+def mujoco_variants() -> list[Case]:
+    """Each MuJoCo setting of `_VARIANTS` on a dropping receiver (and a slide)."""
+    out = []
+    for label, params, agree, note, with_slide in _VARIANTS:
+        cases = [_receiver("dropping φ 0°, 10 N", dropping(), ((0.0, 10.0),))]
+        if with_slide:
+            cases.insert(0, _slide("2 N along +30°", 2.0, 30.0))
+        for c in cases:
+            out.append(replace(c, scenario=replace(c.scenario, name=f"{c.scenario.name} ({label})"), group=label,
+                               mujoco=params, expect_agree=agree, note=note))
+    return out
 
 
 def all_cases() -> list[Case]:

@@ -32,7 +32,8 @@ def format_value(value: float | bool | None, unit: str) -> str:
         return "yes" if value else "no"
     if math.isnan(value):
         return "none"
-    return f"{value:.{_DECIMALS.get(unit, 3)}f}"
+    text = f"{value:.{_DECIMALS.get(unit, 3)}f}"
+    return text.lstrip("-") if float(text) == 0.0 else text  # no "-0.000"
 
 
 def _both_none(row: Row) -> bool:

@@ -124,3 +124,18 @@ def test_tolerances_are_stated_for_every_measured_quantity():
     assert set(QUANTITIES) >= {"onset_pull_n", "leave_time_s", "slide_distance_mm", "caught", "dropped"}
     assert QUANTITIES["onset_pull_n"][2].rel == 0.02
     assert Case(onset_case(0.1, 1.0, 60.0, True).scenario, "g").mujoco == MujocoParams()
+
+
+def test_the_mujoco_settings_are_the_ones_that_make_a_clean_coulomb_contact():
+    """Why impratio 200 and the soft solimp (docs): a stuck box near the cone creeps < 0.1 mm/s
+    (17 mm/s with MuJoCo's impratio 1), and a sliding box keeps its pads in contact with the
+    mean friction at μ F_G (MuJoCo's default solimp makes the pads chatter)."""
+    from robot_sim.contact.crosscheck.diagnostics import creep, slide_contact
+    from robot_sim.contact.crosscheck.mjcf import MUJOCO_DEFAULT_SOLIMP
+
+    assert creep(cone_fraction=0.95)[0] < 1e-4
+    assert creep(MujocoParams(impratio=1.0), cone_fraction=0.95)[0] > 1e-2
+    clean, chatter = slide_contact(), slide_contact(MujocoParams(solimp=MUJOCO_DEFAULT_SOLIMP))
+    assert clean.lost_share == 0.0 and clean.normal_spread < 0.01 and clean.friction_ratio == pytest.approx(1, abs=0.01)
+    assert chatter.lost_share > 0.05 and chatter.normal_spread > 0.2
+    assert chatter.friction_ratio == pytest.approx(1, abs=0.03)  # the mean is still Coulomb's

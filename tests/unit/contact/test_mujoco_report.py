@@ -70,3 +70,7 @@ def test_help_names_the_flags(capsys):
     assert exc.value.code == 0
     out = capsys.readouterr().out
     assert "--quick" in out and "--doc" in out
+
+
+def test_a_difference_that_rounds_to_zero_has_no_sign():
+    assert format_value(-0.0004, "N") == "0.000" and format_value(-0.0006, "N") == "-0.001"
