@@ -1,5 +1,6 @@
 """Reports of the release-controller benchmark (`services.studies.gripper.benchmark`): the
-headline and drop-attribution Markdown tables, the per-controller CSV and the PNG plots.
+headline, per-sub-population and drop-attribution Markdown tables, the per-controller and
+per-sub-population CSVs and the PNG plots.
 
 Rates are written in %, forces in N, times in s; a missing figure (no episode to judge) is "–".
 """
@@ -12,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from services.studies.gripper.benchmark import BenchResult, ControllerStats
+from services.studies.gripper.benchmark import BenchResult, ControllerStats, SubpopulationStats
 
 
 def _f(v: float, digits: int = 2) -> str:
@@ -33,6 +34,42 @@ def markdown_table(rows: list[ControllerStats]) -> str:
             f"| {_f(s.release_time_median_s, 3)} | {_f(s.mode_switches_mean)} "
             f"| {' / '.join(_f(100 * b[k], 1) for k in ('taking', 'dropping', 'hesitating', 'bumping'))} |")
     return "\n".join(lines)
+
+
+def _pct_ci(rate: float, ci: tuple[float, float]) -> str:
+    if rate is None or math.isnan(rate):
+        return "–"
+    return f"{100 * rate:.1f} [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}]"
+
+
+def subpopulation_table(rows: list[SubpopulationStats]) -> str:
+    """One row per sub-population per controller, then the overall rows (rates in %;
+    release success, overshoot and release time over the taking receivers only, "–" where
+    a sub-population has none)."""
+    lines = ["| receiver | gripper | controller | episodes | drops | drop rate % [95% CI] | handed over / taking "
+             "| release success % [95% CI] | overshoot median / p95 N | release time median s |",
+             "|" + "---|" * 10]
+    for r in rows:
+        s = r.stats
+        taking = s.taking_episodes > 0
+        handed = f"{s.handed_over} / {s.taking_episodes}" if taking else "–"
+        over = f"{_f(s.overshoot_median_n)} / {_f(s.overshoot_p95_n)}" if taking else "–"
+        lines.append(f"| {r.receiver} | {r.gripper} | {s.controller} | {s.episodes} | {s.drops} "
+                     f"| {_pct_ci(s.drop_rate, s.drop_ci)} | {handed} "
+                     f"| {_pct_ci(s.release_success_rate, s.release_success_ci)} | {over} "
+                     f"| {_f(s.release_time_median_s, 3)} |")
+    return "\n".join(lines)
+
+
+def write_subpopulation_csv(rows: list[SubpopulationStats], path: Path) -> Path:
+    """The per-sub-population figures as CSV (receiver, gripper, then `ControllerStats.row`)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    dicts = [{"receiver": r.receiver, "gripper": r.gripper, **r.stats.row()} for r in rows]
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(dicts[0]))
+        writer.writeheader()
+        writer.writerows(dicts)
+    return path
 
 
 def attribution_table(rows: list[dict]) -> str:
