@@ -26,6 +26,7 @@ from services.studies.gripper.bench_report import (
     write_csv,
     write_plots,
     write_subpopulation_csv,
+    write_subpopulation_plot,
 )
 from services.studies.gripper.benchmark import (
     DEFAULT_CONTROLLERS,
@@ -174,6 +175,6 @@ def run(args: argparse.Namespace) -> int:
             w.writerows(tests)
     if not args.no_plots:
         for d in {args.out, args.img_dir} - {None}:
-            for path in write_plots(result, rows, d):
+            for path in write_plots(result, rows, d) + [write_subpopulation_plot(sub_rows, d)]:
                 print(f"wrote {path}")
     return 0

@@ -168,3 +168,47 @@ def write_plots(result: BenchResult, rows: list[ControllerStats], out_dir: Path,
     plt.close(fig)
     paths.append(p)
     return paths
+
+
+def write_subpopulation_plot(rows: list[SubpopulationStats], out_dir: Path,
+                             prefix: str = "gripper_bench") -> Path:
+    """Drop rate (every receiver kind) and release success (taking kinds) per sub-population
+    and controller with 95 % Wilson intervals: one column of panels per gripper class."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in rows if r.gripper != "all"]
+    grippers = list(dict.fromkeys(r.gripper for r in rows))
+    receivers = list(dict.fromkeys(r.receiver for r in rows))
+    names = list(dict.fromkeys(r.stats.controller for r in rows))
+    taking = [k for k in receivers if any(r.receiver == k and r.stats.taking_episodes for r in rows)]
+    cell = {(r.receiver, r.gripper, r.stats.controller): r.stats for r in rows}
+    fig, axes = plt.subplots(2, len(grippers), figsize=(4.2 * len(grippers), 7.5), sharey="row", squeeze=False)
+    width = 0.8 / len(names)
+    for col, g in enumerate(grippers):
+        for row, (kinds, attr, ci, title) in enumerate((
+                (receivers, "drop_rate", "drop_ci", "drop rate, %"),
+                (taking, "release_success_rate", "release_success_ci", "release success (taking), %"))):
+            ax = axes[row][col]
+            for j, name in enumerate(names):
+                stats = [cell.get((k, g, name)) for k in kinds]
+                val = np.array([100 * getattr(s, attr) if s else np.nan for s in stats])
+                lo = np.array([100 * getattr(s, ci)[0] if s else np.nan for s in stats])
+                hi = np.array([100 * getattr(s, ci)[1] if s else np.nan for s in stats])
+                x = np.arange(len(kinds)) + (j - (len(names) - 1) / 2) * width
+                ax.bar(x, val, width, label=name)
+                ax.errorbar(x, val, yerr=[val - lo, hi - val], fmt="none", ecolor="k", capsize=2, lw=0.8)
+            ax.set_xticks(np.arange(len(kinds)), kinds, rotation=35, ha="right", fontsize=8)
+            ax.set_title(g if row == 0 else "", fontsize=10)
+            if col == 0:
+                ax.set_ylabel(title)
+    axes[0][0].legend(fontsize=8)
+    fig.suptitle("per sub-population (receiver kind × gripper class), 95 % Wilson CI")
+    fig.tight_layout()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / f"{prefix}_subpopulations.png"
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

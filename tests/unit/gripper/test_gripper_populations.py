@@ -16,7 +16,11 @@ from robot_sim.contact.receiver import LiftOrder, lift_order
 from services.gripper.errors import GripperError
 from services.studies.gripper import benchmark as B
 from services.studies.gripper.attribution import run_attributed
-from services.studies.gripper.bench_report import subpopulation_table, write_subpopulation_csv
+from services.studies.gripper.bench_report import (
+    subpopulation_table,
+    write_subpopulation_csv,
+    write_subpopulation_plot,
+)
 from services.studies.gripper.episodes import GRIPPER_CLASSES, RECEIVER_KINDS, EpisodeDistribution, sample_chunk
 from services.studies.gripper.populations import POPULATIONS, allocate, plan_chunks, population, subpopulations
 
@@ -118,3 +122,5 @@ def test_sub_population_rows_one_per_controller_and_they_add_up(tmp_path):
         got = list(csv.DictReader(fh))
     assert len(got) == len(rows) and list(got[0])[:4] == ["receiver", "gripper", "controller", "episodes"]
     assert sum(int(g["drops"]) for g in got[:-2] if g["controller"] == "SG") == overall["SG"].drops
+    png = write_subpopulation_plot(rows, tmp_path)
+    assert png.read_bytes()[:4] == b"\x89PNG" and png.stat().st_size > 20_000
