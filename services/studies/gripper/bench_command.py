@@ -98,6 +98,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--log-level", default="warning", choices=["debug", "info", "warning", "error"])
 
 
+def _paired_drop_tests(result) -> list[dict]:
+    """McNemar's exact test of SG against every other controller (printed), if SG ran."""
+    tests = []
+    if "SG" in result.outcomes:
+        for other in result.outcomes:
+            if other != "SG" and other not in REFERENCES:
+                t = paired_drop_test(result, "SG", other)
+                tests.append(t)
+                p_text = f"= {t['p_value']:.2g}" if t["p_value"] > 0 else "< 1e-300"  # below the double range
+                print(f"paired drops SG vs {other}: SG-only {t['only_a_drops']}, {other}-only {t['only_b_drops']}, "
+                      f"McNemar exact p {p_text}")
+    return tests
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark and write its tables and plots; returns the exit code (2 on bad input)."""
     logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
@@ -123,19 +137,13 @@ def run(args: argparse.Namespace) -> int:
     rows = summarise(result)
     sub_rows = subpopulation_stats(result)
     grippers = "" if args.grippers is None else f" with grippers {' '.join(args.grippers)}"
-    table = (markdown_table(rows) + "\n\nPer sub-population (receiver kind × gripper class; release success, "
-             "overshoot and release time over the taking receivers):\n\n" + subpopulation_table(sub_rows))
+    table = (markdown_table(rows) + "\n\nPer sub-population (receiver kind × gripper class; handovers, objects held "
+             "to the end, release success, overshoot and release time over the taking receivers):\n\n"
+             + subpopulation_table(sub_rows))
     print(f"\n{args.episodes} episodes per controller, population {args.population}{grippers}, seed {args.seed}, "
           f"{result.wall_time_s:.1f} s\n")
     print(table)
-    tests = []
-    if "SG" in result.outcomes:
-        for other in result.outcomes:
-            if other != "SG" and other not in REFERENCES:
-                t = paired_drop_test(result, "SG", other)
-                tests.append(t)
-                print(f"paired drops SG vs {other}: SG-only {t['only_a_drops']}, {other}-only {t['only_b_drops']}, "
-                      f"McNemar exact p = {t['p_value']:.2g}")
+    tests = _paired_drop_tests(result)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.attribute:
         att = drop_attribution(result)

@@ -44,15 +44,17 @@ def _pct_ci(rate: float, ci: tuple[float, float]) -> str:
 
 def subpopulation_table(rows: list[SubpopulationStats]) -> str:
     """One row per sub-population per controller, then the overall rows (rates in %;
-    release success, overshoot and release time over the taking receivers only, "–" where
-    a sub-population has none)."""
-    lines = ["| receiver | gripper | controller | episodes | drops | drop rate % [95% CI] | handed over / taking "
+    handovers, objects held to the end of the episode (neither released nor dropped),
+    release success, overshoot and release time over the taking receivers only, "–" where a
+    sub-population has none)."""
+    lines = ["| receiver | gripper | controller | episodes | drops | drop rate % [95% CI] "
+             "| handed over / held to the end / taking "
              "| release success % [95% CI] | overshoot median / p95 N | release time median s |",
              "|" + "---|" * 10]
     for r in rows:
         s = r.stats
         taking = s.taking_episodes > 0
-        handed = f"{s.handed_over} / {s.taking_episodes}" if taking else "–"
+        handed = f"{s.handed_over} / {s.held_to_end} / {s.taking_episodes}" if taking else "–"
         over = f"{_f(s.overshoot_median_n)} / {_f(s.overshoot_p95_n)}" if taking else "–"
         lines.append(f"| {r.receiver} | {r.gripper} | {s.controller} | {s.episodes} | {s.drops} "
                      f"| {_pct_ci(s.drop_rate, s.drop_ci)} | {handed} "

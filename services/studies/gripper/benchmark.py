@@ -207,12 +207,14 @@ class ControllerStats:
     mode_switches_mean: float
     drop_rate_by_behaviour: dict[str, float]
     handed_over: int | None = None
+    held_to_end: int | None = None
 
     def row(self) -> dict:
         """Flat dict for CSV."""
         d = {"controller": self.controller, "episodes": self.episodes, "drops": self.drops,
              "drop_rate": self.drop_rate, "drop_ci_low": self.drop_ci[0], "drop_ci_high": self.drop_ci[1],
              "taking_episodes": self.taking_episodes, "handed_over": self.handed_over,
+             "held_to_end": self.held_to_end,
              "release_success_rate": self.release_success_rate,
              "release_success_ci_low": self.release_success_ci[0],
              "release_success_ci_high": self.release_success_ci[1],
@@ -228,7 +230,9 @@ def _pct(a: np.ndarray, q: float) -> float:
 
 def controller_stats(name: str, outcome: BatchOutcome, behaviour: np.ndarray, grasp_start_s: np.ndarray,
                      mask: np.ndarray | None = None) -> ControllerStats:
-    """Figures of one controller over the episodes selected by `mask` (all by default)."""
+    """Figures of one controller over the episodes selected by `mask` (all by default).
+    `held_to_end`: taking episodes neither released nor dropped when the episode ended (the
+    gripper kept the object from a receiver who wanted it)."""
     sel = np.ones(len(outcome), dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
     dropped = outcome.dropped[sel]
     beh = behaviour[sel]
@@ -251,6 +255,7 @@ def controller_stats(name: str, outcome: BatchOutcome, behaviour: np.ndarray, gr
         release_time_median_s=_pct(rel_t, 50),
         mode_switches_mean=float(outcome.mode_switch_count[sel].mean()) if n else math.nan,
         drop_rate_by_behaviour=by_beh, handed_over=int(handed.sum()),
+        held_to_end=int((~outcome.released[sel][take] & ~dropped[take]).sum()),
     )
 
 

@@ -12,8 +12,9 @@ Distributions (gripper frame, x toward the receiver, y down; φ > 0 pulls downwa
 - μ_s ~ U(0.2, 0.9), μ_k = μ_s × U(0.7, 0.95) (both pads together);
 - mass ~ U(0.05, 0.6) kg;
 - receiver kind (`RECEIVER_KINDS`): taking 40 %, dropping 20 %, hesitating 20 %, bumping
-  20 % (weights settable; the kinds "pull-first" and "drag" are taking receivers who pull
-  before they lift, 0.3–0.8 s before, over 0.3–0.7 s, or never lift: off by default);
+  20 % (weights settable; "pull-first" and "drag" are taking receivers who pull first and
+  take up the weight 0.3–0.8 s after their pull starts, over 0.3–0.7 s, or never: weight 0
+  by default, in the "wide" population);
 - gripper class (`GRIPPER_CLASSES`): "slow" (50 N/s, 25 Hz, the thesis's Baxter) by
   default; "fast-loop" (50 N/s, 250 Hz), "fast-force" (500 N/s, 25 Hz), "fast" (500 N/s,
   250 Hz) and "medium" (150 N/s, 100 Hz) settable. The controllers step at the class's

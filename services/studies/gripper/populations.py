@@ -126,6 +126,8 @@ def plan_chunks(dist: EpisodeDistribution, n_episodes: int, chunk_size: int, see
     classes get their exact shares (largest remainder), each cut into chunks of at most
     `chunk_size`; a stratified distribution also deals its receiver kinds exactly, in a
     random order."""
+    if n_episodes < 1 or chunk_size < 1:
+        raise GripperError(f"need n_episodes >= 1 and chunk_size >= 1, got {n_episodes}, {chunk_size}")
     grippers = _weighted(dist.gripper_weights, GRIPPER_CLASSES)
     per_gripper = allocate(n_episodes, [w for _, w in grippers])
     cuts = [(g, min(chunk_size, int(m) - i)) for (g, _), m in zip(grippers, per_gripper)
@@ -143,6 +145,4 @@ def plan_chunks(dist: EpisodeDistribution, n_episodes: int, chunk_size: int, see
                 if cg == g:
                     kinds[i] = tuple(str(k) for k in dealt[at:at + size])
                     at += size
-    if len(cuts) == 0:
-        raise GripperError(f"no episode to run (n = {n_episodes})")
     return [ChunkPlan(i, size, seqs[i], g, kinds[i]) for i, (g, size) in enumerate(cuts)]

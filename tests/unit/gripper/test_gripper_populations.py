@@ -111,10 +111,12 @@ def test_sub_population_rows_one_per_controller_and_they_add_up(tmp_path):
         part = [x.stats for x in rows[:-2] if x.stats.controller == name]
         assert all(p.episodes == 2 for p in part)
         tot = overall[name]
-        for field in ("episodes", "drops", "taking_episodes", "handed_over"):
+        for field in ("episodes", "drops", "taking_episodes", "handed_over", "held_to_end"):
             assert sum(getattr(p, field) for p in part) == getattr(tot, field), field
         assert tot.drops == int(r.outcomes[name].dropped.sum()) and tot.drop_rate == tot.drops / tot.episodes
-        assert tot.handed_over == int(r.outcomes[name].handed_over[r.behaviour == 0].sum())
+        take, out = r.behaviour == 0, r.outcomes[name]
+        assert tot.handed_over == int(out.handed_over[take].sum())
+        assert tot.held_to_end == int((take & ~out.released & ~out.dropped).sum())
         assert tot == next(s for s in B.summarise(r) if s.controller == name)
     table = subpopulation_table(rows).splitlines()
     assert len(table) == 2 + len(rows) and table[-1].startswith("| all | all | SG | 48 |")
