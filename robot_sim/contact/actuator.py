@@ -4,8 +4,12 @@ The gripper is position-controlled; a linear spring (k = 5 N/cm) between finger 
 turns position into force: F_G = k (x − x0) for x > x0, else 0 (eq 3.21), x0 being the
 position where the pad touches the object. A force command F maps to the target
 x = x0 + F / k (or x0 − open_gap for F ≤ 0). The position loop latches a new target at
-25 Hz (§3.6) and the finger follows with a first-order lag under a speed limit, so a
-commanded force arrives late and at a bounded rate (k × speed limit, 50 N/s by default).
+`loop_rate_hz` (25 Hz by default, §3.6) and the finger follows with a first-order lag under
+a speed limit, so a commanded force arrives late and at a bounded rate (k × speed limit:
+`GripperParams.force_rate_n_per_s`, 50 N/s by default). Faster grippers (e.g. 500 N/s and a
+250 Hz loop) are the same model with other numbers: `GripperParams.with_rates`, or
+`SimConfig.with_gripper_rates` for a whole setup (which also reads the wrist sensor at the
+loop's rate and sets the controllers' period, `SimConfig.control_period_s`).
 
 Positions here are `finger_m` = x − x0 (m): > 0 compresses the spring, < 0 is a gap.
 Works on Python floats (one episode) or numpy arrays (a batch) through the backend.

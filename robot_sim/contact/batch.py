@@ -8,7 +8,11 @@ never on the number of worker processes or on their timing. Chunks run on a proc
 (`workers` processes, default: every core) and a tqdm bar counts finished episodes.
 
 The controller is built in each worker by `controller_factory()` (a picklable callable:
-a class, or `functools.partial` of one).
+a class, or `functools.partial` of one). It steps every `period_s` of plant time
+(`episode.run_vectorised`), whatever the gripper's position loop does: the loop latches the
+newest command at its own rate (25 Hz by default). A controller slower than
+`config.control_period_s` (a gripper loop faster than the controller) gets a warning: the
+loop would latch the same command several times.
 """
 
 from __future__ import annotations
@@ -73,8 +77,9 @@ def run_batch(
     chunk_size: int = 500,
     progress: bool = True,
 ) -> BatchResult:
-    """Run `n_episodes` randomised episodes of `behaviour` ("taking", "dropping", "bumping",
-    "hesitating" or "mixed") under the controller, and judge each from ground truth."""
+    """Run `n_episodes` randomised episodes of `behaviour` (a kind of
+    `robot_sim.contact.sampling.KINDS`, "mixed" or "mixed-wide") under the controller, and
+    judge each from ground truth."""
     if n_episodes < 1:
         raise ContactSimError(f"n_episodes must be >= 1, got {n_episodes}")
     if chunk_size < 1:
@@ -83,6 +88,10 @@ def run_batch(
     if workers < 1:
         raise ContactSimError(f"workers must be >= 1, got {workers}")
     sample_behaviours(behaviour, 0, np.random.default_rng(0))  # validates the name before any work
+    period_s = float(getattr(controller_factory(), "period_s", 0.01))
+    if period_s > config.control_period_s * (1.0 + 1e-9):
+        log.warning("the controller steps every %.4g s but the gripper loop latches every %.4g s: "
+                    "build it with period_s=config.control_period_s", period_s, 1.0 / config.gripper.loop_rate_hz)
     sizes = [min(chunk_size, n_episodes - i) for i in range(0, n_episodes, chunk_size)]
     seqs = np.random.SeedSequence(seed).spawn(len(sizes))
     jobs = [(i, config, behaviour, s, seqs[i], controller_factory) for i, s in enumerate(sizes)]

@@ -27,7 +27,7 @@ from robot_sim.contact.receiver import behaviour_by_name
 
 log = logging.getLogger("robot_sim.contact")
 
-BEHAVIOURS = ("taking", "dropping", "bumping", "hesitating", "absent")
+BEHAVIOURS = ("taking", "pull-first", "drag", "dropping", "bumping", "hesitating", "absent")
 
 
 def _finite(kind):
@@ -40,11 +40,14 @@ def _finite(kind):
 
 
 def _controller_factory(args) -> Callable[[], GripController]:
+    """The controller; the built-in ones step at the setup's control period (the faster of
+    the F/T sensor and the gripper loop)."""
     name = args.controller
+    period_s = _config(args).control_period_s
     if name == "constant":
-        return functools.partial(ConstantGrip, args.grip_n)
+        return functools.partial(ConstantGrip, args.grip_n, period_s=period_s)
     if name == "release-after":
-        return functools.partial(ReleaseAfter, args.grip_n, args.release_at_s)
+        return functools.partial(ReleaseAfter, args.grip_n, args.release_at_s, period_s=period_s)
     if ":" in name:
         module, _, attr = name.partition(":")
         try:
@@ -59,8 +62,9 @@ def _controller_factory(args) -> Callable[[], GripController]:
 def _config(args) -> SimConfig:
     sensors = SensorParams(accel_noise_snr_db=args.accel_snr_db, grip_noise_snr_db=args.grip_snr_db,
                            optical_report_rate_hz=args.optical_rate_hz)
-    return SimConfig(gripper=GripperParams(open_gap_m=args.open_gap_m), sensors=sensors,
-                     dt_s=args.dt_s, duration_s=args.duration_s)
+    cfg = SimConfig(gripper=GripperParams(open_gap_m=args.open_gap_m), sensors=sensors,
+                    dt_s=args.dt_s, duration_s=args.duration_s)
+    return cfg.with_gripper_rates(args.force_rate_n_s, args.loop_rate_hz)
 
 
 def _add_common(p: argparse.ArgumentParser) -> None:
@@ -72,6 +76,11 @@ def _add_common(p: argparse.ArgumentParser) -> None:
                    help="finger gap behind the contact point for a 0 N command, m (0 = thesis spring gripper)")
     p.add_argument("--accel-snr-db", type=_finite(float), default=None, help="noise on a_y at this SNR, dB (thesis: 3)")
     p.add_argument("--grip-snr-db", type=_finite(float), default=None, help="noise on the grip command at this SNR, dB")
+    p.add_argument("--force-rate-n-s", type=_finite(float), default=50.0,
+                   help="gripper force rate (finger speed limit × spring), N/s (50)")
+    p.add_argument("--loop-rate-hz", type=_finite(float), default=25.0,
+                   help="gripper position-loop rate, Hz (25); above 100 Hz the F/T sensor and the built-in "
+                        "controllers run at it too")
     p.add_argument("--optical-rate-hz", type=_finite(float), default=100.0, help="optical sensor read rate, Hz (100)")
     p.add_argument("--dt-s", type=_finite(float), default=0.001, help="plant step, s (0.001)")
     p.add_argument("--duration-s", type=_finite(float), default=3.5, help="episode length, s (3.5)")
@@ -100,7 +109,7 @@ def build_parser() -> argparse.ArgumentParser:
     ep.add_argument("--plot", type=Path, default=None, help="write a PNG of the episode here")
     _add_common(ep)
     bt = sub.add_parser("batch", help="run many randomised episodes in parallel and summarise")
-    bt.add_argument("--behaviour", choices=BEHAVIOURS[:-1] + ("mixed",), default="mixed")
+    bt.add_argument("--behaviour", choices=BEHAVIOURS[:-1] + ("mixed", "mixed-wide"), default="mixed")
     bt.add_argument("-n", "--episodes", type=int, default=1000, help="number of episodes (1000)")
     bt.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     bt.add_argument("--chunk-size", type=int, default=500, help="episodes per vectorised chunk (500)")

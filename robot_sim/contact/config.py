@@ -9,7 +9,7 @@ are otherwise stated as assumptions next to the field.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 GRAVITY_M_S2 = 9.81
 
@@ -95,6 +95,20 @@ class GripperParams:
         _check(self.speed_limit_m_s > 0, "speed_limit_m_s must be > 0")
         _check(self.open_gap_m >= 0, "open_gap_m must be >= 0")
         _check(0 < self.max_force_n <= 140.0, "max_force_n must be in (0, 140] N")
+
+    @property
+    def force_rate_n_per_s(self) -> float:
+        """Fastest change of the grip force, N/s: the spring times the finger speed limit
+        (50 N/s by default). Large force steps change at this rate; small ones follow the
+        finger's first-order lag."""
+        return self.spring_n_per_m * self.speed_limit_m_s
+
+    def with_rates(self, force_rate_n_per_s: float, loop_rate_hz: float) -> "GripperParams":
+        """This gripper with another force rate (N/s, through the finger speed limit) and
+        position-loop rate (Hz); the spring, lag, gap and force limit stay."""
+        _check(math.isfinite(force_rate_n_per_s) and force_rate_n_per_s > 0,
+               f"force rate must be > 0 N/s, got {force_rate_n_per_s}")
+        return replace(self, speed_limit_m_s=force_rate_n_per_s / self.spring_n_per_m, loop_rate_hz=loop_rate_hz)
 
 
 @dataclass(frozen=True)
@@ -213,3 +227,25 @@ class SimConfig:
     def every(self, rate_hz: float) -> int:
         """Plant steps between two events of a periodic process at rate_hz."""
         return max(1, int(round(1.0 / (rate_hz * self.dt_s))))
+
+    @property
+    def control_period_s(self) -> float:
+        """Period a release controller steps at with this setup (s): that of the faster of
+        the wrist F/T sensor and the gripper's position loop (0.01 s by default: 100 Hz F/T,
+        25 Hz loop; with a 250 Hz loop every loop tick latches a fresh command)."""
+        return 1.0 / max(self.sensors.ft_rate_hz, self.gripper.loop_rate_hz)
+
+    def with_gripper_rates(self, force_rate_n_per_s: float, loop_rate_hz: float) -> "SimConfig":
+        """This setup with another gripper force rate (N/s) and position-loop rate (Hz). A
+        loop faster than the wrist F/T sensor also reads the sensor at the loop's rate (a
+        controller stepping faster than its force sensor would only repeat itself); the
+        optical sensor keeps its read rate (its counts per read set its resolution). The loop
+        period must be a whole number of plant steps, so the rate is what was asked."""
+        steps = 1.0 / (loop_rate_hz * self.dt_s) if loop_rate_hz > 0 else math.nan
+        _check(math.isfinite(steps) and steps >= 1.0 - 1e-9 and abs(steps - round(steps)) < 1e-9,
+               f"loop_rate_hz = {loop_rate_hz} Hz is not a whole number of plant steps of {self.dt_s} s")
+        gripper = self.gripper.with_rates(force_rate_n_per_s, loop_rate_hz)
+        sensors = self.sensors
+        if loop_rate_hz > sensors.ft_rate_hz:
+            sensors = replace(sensors, ft_rate_hz=float(loop_rate_hz))
+        return replace(self, gripper=gripper, sensors=sensors)

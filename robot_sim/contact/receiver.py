@@ -13,7 +13,9 @@ point; u = (cos φ, sin φ) the pull direction, φ > 0 pulls downward):
 
 with s_*(t) minimum-jerk profiles 10τ³ − 15τ⁴ + 6τ⁵ over their windows, A the hand's start
 offset, B = d_pull u the pull, C the retraction. The hand also pushes up with a feedforward
-w_ff g(t) Ŵ to carry the weight it expects (Ŵ, its estimate of the object's weight).
+w_ff g(t) s_lift(t) Ŵ to carry the weight it expects (Ŵ, its estimate of the object's
+weight); s_lift is 1 from t = 0 for every behaviour but the pull-first taking one, whose
+lift window starts after its pull (or never: a drag).
 
 Coupling of hand and object (`coupling`):
 - FULL (taking, hesitating): spring–damper in x and y, scaled by g, capped at
@@ -24,7 +26,12 @@ Coupling of hand and object (`coupling`):
 
 Behaviours (each seedable through `sample_behaviours`):
 - taking: minimum-jerk reach, grasp builds over the transfer time (300–700 ms), weight
-  feedforward, pull away along φ.
+  feedforward, pull away along φ. The weight is taken up with the grasp, so before the pull
+  has built up ("lift first").
+- pull-first taking (`pull_first`): grasps and pulls as `taking`, but takes up the weight
+  only some time after the pull started ("pull first, lift later"), or never (`drag`: a
+  drag along φ that still takes the object, the hand holding it once it leaves the pads).
+  Its `behaviour` is TAKING: handing it over is the right outcome.
 - dropping: reach, grasp, pull (or push, φ near 180°) along φ without supporting the
   weight, then let go.
 - bumping: the hand sweeps through the object's position along u at speed and retracts: a
@@ -42,21 +49,9 @@ import numpy as np
 
 from robot_sim.contact.config import ContactSimError
 
-__all__ = [
-    "Behaviour",
-    "Coupling",
-    "ReceiverParams",
-    "taking",
-    "dropping",
-    "bumping",
-    "hesitating",
-    "absent",
-    "behaviour_by_name",
-    "sample_behaviours",
-    "stack_receivers",
-    "reference",
-    "min_jerk",
-]
+__all__ = ["Behaviour", "Coupling", "ReceiverParams", "taking", "pull_first", "drag", "LiftOrder",
+           "lift_order", "dropping", "bumping", "hesitating", "absent", "behaviour_by_name",
+           "sample_behaviours", "stack_receivers", "reference", "min_jerk"]
 
 NEVER_S = math.inf
 
@@ -82,7 +77,9 @@ class Coupling(IntEnum):
 @dataclass(frozen=True)
 class ReceiverParams:
     """One receiver behaviour (floats), or n of them (arrays of shape (n,)). Times in s,
-    distances in m, forces in N, angles in rad; see the module docstring for the symbols."""
+    distances in m, forces in N, angles in rad; see the module docstring for the symbols.
+    `lift_start_s`, `lift_duration_s`: the window of s_lift; the defaults (−1 s, 1 ms) make
+    s_lift = 1 from t = 0 (the weight feedforward follows the grasp), inf never lifts."""
 
     behaviour: int
     coupling: int
@@ -106,13 +103,16 @@ class ReceiverParams:
     grasp_strength_n: float
     weight_feedforward: float
     weight_estimate_n: float
+    lift_start_s: float = -1.0
+    lift_duration_s: float = 1e-3
 
     def __post_init__(self) -> None:
         for f in fields(self):
             v = np.asarray(getattr(self, f.name), dtype=float)
             if np.isnan(v).any():
                 raise ContactSimError(f"invalid receiver parameter: {f.name} is NaN")
-        for n in ("reach_duration_s", "pull_duration_s", "retract_duration_s", "grasp_build_s", "letgo_duration_s"):
+        for n in ("reach_duration_s", "pull_duration_s", "retract_duration_s", "grasp_build_s", "letgo_duration_s",
+                  "lift_duration_s"):
             if (np.asarray(getattr(self, n)) <= 0).any():
                 raise ContactSimError(f"invalid receiver parameter: {n} must be > 0")
         level = np.asarray(self.grasp_level)
@@ -159,6 +159,58 @@ def taking(
         letgo_start_s=NEVER_S, letgo_duration_s=0.1,
         grasp_strength_n=grasp_strength_n, weight_feedforward=weight_feedforward, weight_estimate_n=weight_n,
     )
+
+
+def pull_first(
+    pull_angle_rad: float = 0.0,
+    weight_n: float = 0.2 * 9.81,
+    reach_start_s: float = 0.2,
+    reach_duration_s: float = 0.8,
+    reach_distance_m: float = 0.25,
+    transfer_s: float = 0.5,
+    pull_delay_s: float = 0.0,
+    pull_duration_s: float = 0.8,
+    pull_distance_m: float = 0.20,
+    lift_delay_s: float = 0.5,
+    lift_duration_s: float = 0.4,
+    grasp_strength_n: float = 20.0,
+    weight_feedforward: float = 1.0,
+) -> ReceiverParams:
+    """A taking receiver who pulls first: reach and grasp as `taking`, pull along φ from
+    `pull_delay_s` after the grasp starts, and take up the weight (the feedforward w_ff g Ŵ)
+    only from `lift_delay_s` after the pull started, over `lift_duration_s`.
+    `lift_delay_s = inf` never lifts (see `drag`)."""
+    p = taking(pull_angle_rad=pull_angle_rad, weight_n=weight_n, reach_start_s=reach_start_s,
+               reach_duration_s=reach_duration_s, reach_distance_m=reach_distance_m, transfer_s=transfer_s,
+               pull_delay_s=pull_delay_s, pull_duration_s=pull_duration_s, pull_distance_m=pull_distance_m,
+               grasp_strength_n=grasp_strength_n, weight_feedforward=weight_feedforward)
+    if not lift_delay_s >= 0.0:
+        raise ContactSimError(f"invalid receiver parameter: lift_delay_s must be >= 0, got {lift_delay_s}")
+    return replace(p, lift_start_s=p.pull_start_s + lift_delay_s, lift_duration_s=lift_duration_s)
+
+
+def drag(**kwargs) -> ReceiverParams:
+    """A taking receiver who pulls along φ and never lifts: a drag that still takes the
+    object (its grasp holds it once it leaves the pads). Arguments as `pull_first`, without
+    the lift's."""
+    return pull_first(**kwargs, lift_delay_s=NEVER_S)
+
+
+class LiftOrder(IntEnum):
+    """When a taking receiver takes up the weight relative to its pull."""
+
+    LIFT_FIRST = 0
+    PULL_FIRST = 1
+    NEVER_LIFTS = 2
+
+
+def lift_order(p: ReceiverParams):
+    """`LiftOrder` code(s) of a receiver (an int, or an int array for a stacked batch): never
+    lifts if its lift window never starts, pull first if it starts after the pull's."""
+    start, pull = np.asarray(p.lift_start_s, dtype=float), np.asarray(p.pull_start_s, dtype=float)
+    code = np.where(np.isinf(start) & (start > 0), LiftOrder.NEVER_LIFTS,
+                    np.where(start > pull, LiftOrder.PULL_FIRST, LiftOrder.LIFT_FIRST)).astype(np.int64)
+    return int(code) if code.ndim == 0 else code
 
 
 def dropping(
@@ -260,60 +312,30 @@ def absent(weight_n: float = 0.2 * 9.81) -> ReceiverParams:
     )
 
 
+#: The behaviours of the first benchmark ("mixed" draws one of these four, in this order).
 _FACTORIES = {"taking": taking, "dropping": dropping, "bumping": bumping, "hesitating": hesitating}
+#: The taking receivers who pull before (or without) lifting.
+_PULL_FIRST_FACTORIES = {"pull-first": pull_first, "drag": drag}
 
 
 def behaviour_by_name(name: str, **kwargs) -> ReceiverParams:
-    """Build a behaviour from its name (taking, dropping, bumping, hesitating)."""
+    """Build a behaviour from its name (taking, pull-first, drag, dropping, bumping,
+    hesitating, absent)."""
+    factories = {**_FACTORIES, **_PULL_FIRST_FACTORIES, "absent": absent}
     try:
-        factory = {**_FACTORIES, "absent": absent}[name]
+        factory = factories[name]
     except KeyError:
-        raise ContactSimError(f"unknown receiver behaviour {name!r}; choose one of {sorted(_FACTORIES)}") from None
+        raise ContactSimError(f"unknown receiver behaviour {name!r}; choose one of {sorted(factories)}") from None
     return factory(**kwargs)
 
 
 def sample_behaviours(kind: str, n: int, rng: np.random.Generator,
                       weight_n: float = 0.2 * 9.81) -> list[ReceiverParams]:
-    """n randomised behaviours of one kind (or "mixed": each kind with equal chance).
+    """n randomised behaviours of one kind, "mixed" or "mixed-wide": see
+    `robot_sim.contact.sampling.sample_behaviours` (the distributions are there)."""
+    from robot_sim.contact.sampling import sample_behaviours as sample
 
-    Distributions (assumptions, chosen to span the thesis's cases):
-    φ ~ U(−30°, 30°) (bumping: U(150°, 210°), i.e. toward the robot); reach 0.6–1.0 s over
-    0.2–0.35 m; load transfer 0.3–0.7 s (thesis §3.2); pull 0.1–0.3 m over 0.5–1.2 s;
-    grasp strength 10–30 N; weight estimate ±10 %; dropping lets go 0.8–1.6 s after the
-    grasp; hesitating grasps to 0.4–0.9 and lets go 0.2–0.6 s after the grasp starts;
-    bumps of 2–4 cm penetration over 0.08–0.2 s.
-    """
-    if n < 0:
-        raise ContactSimError("number of episodes must be >= 0")
-    kinds = list(_FACTORIES)
-    out: list[ReceiverParams] = []
-    for _ in range(n):
-        k = kinds[int(rng.integers(4))] if kind == "mixed" else kind
-        if k not in _FACTORIES:
-            raise ContactSimError(f"unknown receiver behaviour {kind!r}; "
-                                  f"choose one of {sorted(_FACTORIES) + ['mixed']}")
-        phi = math.radians(rng.uniform(-30.0, 30.0))
-        w_est = weight_n * rng.uniform(0.9, 1.1)
-        common = dict(pull_angle_rad=phi, weight_n=w_est, reach_start_s=rng.uniform(0.1, 0.3),
-                      reach_duration_s=rng.uniform(0.6, 1.0), reach_distance_m=rng.uniform(0.2, 0.35))
-        if k == "taking":
-            p = taking(**common, transfer_s=rng.uniform(0.3, 0.7), pull_delay_s=rng.uniform(0.0, 0.2),
-                       pull_duration_s=rng.uniform(0.5, 1.2), pull_distance_m=rng.uniform(0.1, 0.3),
-                       grasp_strength_n=rng.uniform(10.0, 30.0), weight_feedforward=rng.uniform(0.8, 1.0))
-        elif k == "dropping":
-            p = dropping(**common, transfer_s=rng.uniform(0.2, 0.5), pull_delay_s=rng.uniform(0.0, 0.2),
-                         pull_duration_s=rng.uniform(0.5, 1.2), pull_distance_m=rng.uniform(0.1, 0.3),
-                         letgo_after_s=rng.uniform(0.8, 1.6), grasp_strength_n=rng.uniform(10.0, 30.0))
-        elif k == "hesitating":
-            p = hesitating(**common, grasp_build_s=rng.uniform(0.2, 0.4), grasp_level=rng.uniform(0.4, 0.9),
-                           pull_distance_m=rng.uniform(0.0, 0.02), letgo_after_s=rng.uniform(0.2, 0.6),
-                           grasp_strength_n=rng.uniform(10.0, 30.0))
-        else:
-            p = bumping(pull_angle_rad=math.radians(rng.uniform(150.0, 210.0)), weight_n=w_est,
-                        bump_start_s=rng.uniform(0.5, 1.5), penetration_m=rng.uniform(0.02, 0.04),
-                        sweep_duration_s=rng.uniform(0.08, 0.2))
-        out.append(p)
-    return out
+    return sample(kind, n, rng, weight_n=weight_n)
 
 
 def stack_receivers(behaviours: list[ReceiverParams]) -> ReceiverParams:
@@ -354,8 +376,9 @@ def reference(t, p: ReceiverParams):
     rvy = -p.start_y_m * d1 + by * d2 + p.retract_y_m * d3
     sg, _ = min_jerk(t, p.grasp_start_s, p.grasp_build_s)
     sl, _ = min_jerk(t, p.letgo_start_s, p.letgo_duration_s)
+    lift, _ = min_jerk(t, p.lift_start_s, p.lift_duration_s)
     grasp = p.grasp_level * sg * (1.0 - sl)
-    ff_y = -p.weight_feedforward * grasp * p.weight_estimate_n
+    ff_y = -p.weight_feedforward * grasp * p.weight_estimate_n * lift
     return rx, ry, rvx, rvy, grasp, ff_y
 
 

@@ -148,14 +148,14 @@ def shared_repeats(columns: Sequence[np.ndarray], previous: list[tuple]) -> list
 
 
 def reference_settled(receiver: ReceiverParams, t_s: float) -> bool:
-    """Whether every window of the receiver's behaviour (reach, pull, retract, grasp, let-go)
+    """Whether every window of the receiver's behaviour (reach, pull, retract, grasp, let-go, lift)
     has ended by time `t_s` (s) or never starts: its reference (a function of the windows'
     progress τ = clip((t − start)/duration, 0, 1) only, see `reference`) is then the same,
     bit for bit, at every later time. One episode (floats) only."""
     p = receiver
     for start_s, duration_s in ((p.reach_start_s, p.reach_duration_s), (p.pull_start_s, p.pull_duration_s),
                                 (p.retract_start_s, p.retract_duration_s), (p.grasp_start_s, p.grasp_build_s),
-                                (p.letgo_start_s, p.letgo_duration_s)):
+                                (p.letgo_start_s, p.letgo_duration_s), (p.lift_start_s, p.lift_duration_s)):
         if start_s != math.inf and np.clip((t_s - start_s) / duration_s, 0.0, 1.0) != 1.0:
             return False
     return True

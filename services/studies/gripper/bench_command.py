@@ -2,7 +2,9 @@
 (`services.studies.gripper.benchmark` runs the episodes and computes the statistics,
 `services.studies.gripper.bench_report` writes the tables and plots).
 
-    handover-study bench                                     # CI-sized: 200 episodes each
+    handover-study bench                                     # CI-sized: 200 episodes each, "wide" population
+    handover-study bench --population narrow -n 10000 --seed 1   # the first benchmark's distribution
+    handover-study bench -n 12000 --controllers FS1 HI SG --workers 2   # 500 per sub-population of "wide"
     handover-study bench -n 5000 --seed 1 --controllers FS1 HI SG --attribute --out out/gripper_bench_v2
     handover-study bench -n 10000 --seed 1000 --controllers HI SG --set SG:max_hold_force_n=18 --attribute
 """
@@ -17,7 +19,15 @@ from pathlib import Path
 
 from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
-from services.studies.gripper.bench_report import attribution_table, markdown_table, write_csv, write_plots
+from services.studies.gripper.bench_report import (
+    attribution_table,
+    markdown_table,
+    subpopulation_table,
+    write_csv,
+    write_plots,
+    write_subpopulation_csv,
+    write_subpopulation_plot,
+)
 from services.studies.gripper.benchmark import (
     DEFAULT_CONTROLLERS,
     REFERENCES,
@@ -26,8 +36,11 @@ from services.studies.gripper.benchmark import (
     paired_drop_test,
     paired_overshoot_rows,
     run_benchmark,
+    subpopulation_stats,
     summarise,
 )
+from services.studies.gripper.episodes import GRIPPER_CLASSES
+from services.studies.gripper.populations import DEFAULT_POPULATION, POPULATIONS, population
 
 
 def _positive_int(text: str) -> int:
@@ -63,6 +76,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("-n", "--episodes", type=_positive_int, default=200, help="episodes per controller")
     p.add_argument("--seed", type=int, default=1,
                    help=f"episode seed (the SG controller was tuned on seed {TUNING_SEED}: evaluate on others)")
+    p.add_argument("--population", choices=list(POPULATIONS), default=DEFAULT_POPULATION,
+                   help="episode distribution: wide (default: six receiver kinds, including the taking receivers who "
+                        "pull before or without lifting, × four gripper classes, stratified) or narrow (the first "
+                        "benchmark's: reproduces its figures); see services/studies/gripper/populations.py")
+    p.add_argument("--grippers", nargs="+", choices=list(GRIPPER_CLASSES), default=None, metavar="CLASS",
+                   help=f"gripper classes instead of the population's, equal shares ({', '.join(GRIPPER_CLASSES)})")
     p.add_argument("--workers", type=_positive_int, default=None, help="processes (default: all cores)")
     p.add_argument("--chunk-size", type=_positive_int, default=250, help="episodes per vectorised chunk")
     p.add_argument("--out", type=Path, default=Path("out/gripper_bench"),
@@ -79,6 +98,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--log-level", default="warning", choices=["debug", "info", "warning", "error"])
 
 
+def _paired_drop_tests(result) -> list[dict]:
+    """McNemar's exact test of SG against every other controller (printed), if SG ran."""
+    tests = []
+    if "SG" in result.outcomes:
+        for other in result.outcomes:
+            if other != "SG" and other not in REFERENCES:
+                t = paired_drop_test(result, "SG", other)
+                tests.append(t)
+                p_text = f"= {t['p_value']:.2g}" if t["p_value"] > 0 else "< 1e-300"  # below the double range
+                print(f"paired drops SG vs {other}: SG-only {t['only_a_drops']}, {other}-only {t['only_b_drops']}, "
+                      f"McNemar exact p {p_text}")
+    return tests
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark and write its tables and plots; returns the exit code (2 on bad input)."""
     logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
@@ -91,9 +124,10 @@ def run(args: argparse.Namespace) -> int:
             raise GripperError(f"--set names controller(s) {unknown} that are not in --controllers {args.controllers}")
         for name, params in overrides.items():
             make_controller(name, **params)  # refuse an unknown parameter before any episode runs
+        dist = population(args.population, args.grippers)
         result = run_benchmark(args.controllers, args.episodes, seed=args.seed, workers=args.workers,
                                chunk_size=args.chunk_size, progress=not args.no_progress, attribute=args.attribute,
-                               overrides=overrides)
+                               overrides=overrides, dist=dist)
     except GripperError as exc:
         print(f"handover-study bench: error: {exc}", file=sys.stderr)
         return 2
@@ -101,17 +135,15 @@ def run(args: argparse.Namespace) -> int:
         print("handover-study bench: interrupted", file=sys.stderr)
         return 130
     rows = summarise(result)
-    table = markdown_table(rows)
-    print(f"\n{args.episodes} episodes per controller, seed {args.seed}, {result.wall_time_s:.1f} s\n")
+    sub_rows = subpopulation_stats(result)
+    grippers = "" if args.grippers is None else f" with grippers {' '.join(args.grippers)}"
+    table = (markdown_table(rows) + "\n\nPer sub-population (receiver kind × gripper class; handovers, objects held "
+             "to the end, release success, overshoot and release time over the taking receivers):\n\n"
+             + subpopulation_table(sub_rows))
+    print(f"\n{args.episodes} episodes per controller, population {args.population}{grippers}, seed {args.seed}, "
+          f"{result.wall_time_s:.1f} s\n")
     print(table)
-    tests = []
-    if "SG" in result.outcomes:
-        for other in result.outcomes:
-            if other != "SG" and other not in REFERENCES:
-                t = paired_drop_test(result, "SG", other)
-                tests.append(t)
-                print(f"paired drops SG vs {other}: SG-only {t['only_a_drops']}, {other}-only {t['only_b_drops']}, "
-                      f"McNemar exact p = {t['p_value']:.2g}")
+    tests = _paired_drop_tests(result)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.attribute:
         att = drop_attribution(result)
@@ -143,6 +175,7 @@ def run(args: argparse.Namespace) -> int:
     (args.out / "table.md").write_text(table + "\n")
     print(f"\nwrote {args.out / 'table.md'}")
     print(f"wrote {write_csv(rows, args.out / 'results.csv')}")
+    print(f"wrote {write_subpopulation_csv(sub_rows, args.out / 'subpopulations.csv')}")
     if tests:
         with (args.out / "paired.csv").open("w", newline="") as fh:
             w = csv.DictWriter(fh, fieldnames=list(tests[0]))
@@ -150,6 +183,6 @@ def run(args: argparse.Namespace) -> int:
             w.writerows(tests)
     if not args.no_plots:
         for d in {args.out, args.img_dir} - {None}:
-            for path in write_plots(result, rows, d):
+            for path in write_plots(result, rows, d) + [write_subpopulation_plot(sub_rows, d)]:
                 print(f"wrote {path}")
     return 0

@@ -1,5 +1,6 @@
 """Reports of the release-controller benchmark (`services.studies.gripper.benchmark`): the
-headline and drop-attribution Markdown tables, the per-controller CSV and the PNG plots.
+headline, per-sub-population and drop-attribution Markdown tables, the per-controller and
+per-sub-population CSVs and the PNG plots.
 
 Rates are written in %, forces in N, times in s; a missing figure (no episode to judge) is "–".
 """
@@ -12,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from services.studies.gripper.benchmark import BenchResult, ControllerStats
+from services.studies.gripper.benchmark import BenchResult, ControllerStats, SubpopulationStats
 
 
 def _f(v: float, digits: int = 2) -> str:
@@ -33,6 +34,44 @@ def markdown_table(rows: list[ControllerStats]) -> str:
             f"| {_f(s.release_time_median_s, 3)} | {_f(s.mode_switches_mean)} "
             f"| {' / '.join(_f(100 * b[k], 1) for k in ('taking', 'dropping', 'hesitating', 'bumping'))} |")
     return "\n".join(lines)
+
+
+def _pct_ci(rate: float, ci: tuple[float, float]) -> str:
+    if rate is None or math.isnan(rate):
+        return "–"
+    return f"{100 * rate:.1f} [{100 * ci[0]:.1f}, {100 * ci[1]:.1f}]"
+
+
+def subpopulation_table(rows: list[SubpopulationStats]) -> str:
+    """One row per sub-population per controller, then the overall rows (rates in %;
+    handovers, objects held to the end of the episode (neither released nor dropped),
+    release success, overshoot and release time over the taking receivers only, "–" where a
+    sub-population has none)."""
+    lines = ["| receiver | gripper | controller | episodes | drops | drop rate % [95% CI] "
+             "| handed over / held to the end / taking "
+             "| release success % [95% CI] | overshoot median / p95 N | release time median s |",
+             "|" + "---|" * 10]
+    for r in rows:
+        s = r.stats
+        taking = s.taking_episodes > 0
+        handed = f"{s.handed_over} / {s.held_to_end} / {s.taking_episodes}" if taking else "–"
+        over = f"{_f(s.overshoot_median_n)} / {_f(s.overshoot_p95_n)}" if taking else "–"
+        lines.append(f"| {r.receiver} | {r.gripper} | {s.controller} | {s.episodes} | {s.drops} "
+                     f"| {_pct_ci(s.drop_rate, s.drop_ci)} | {handed} "
+                     f"| {_pct_ci(s.release_success_rate, s.release_success_ci)} | {over} "
+                     f"| {_f(s.release_time_median_s, 3)} |")
+    return "\n".join(lines)
+
+
+def write_subpopulation_csv(rows: list[SubpopulationStats], path: Path) -> Path:
+    """The per-sub-population figures as CSV (receiver, gripper, then `ControllerStats.row`)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    dicts = [{"receiver": r.receiver, "gripper": r.gripper, **r.stats.row()} for r in rows]
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(dicts[0]))
+        writer.writeheader()
+        writer.writerows(dicts)
+    return path
 
 
 def attribution_table(rows: list[dict]) -> str:
@@ -131,3 +170,47 @@ def write_plots(result: BenchResult, rows: list[ControllerStats], out_dir: Path,
     plt.close(fig)
     paths.append(p)
     return paths
+
+
+def write_subpopulation_plot(rows: list[SubpopulationStats], out_dir: Path,
+                             prefix: str = "gripper_bench") -> Path:
+    """Drop rate (every receiver kind) and release success (taking kinds) per sub-population
+    and controller with 95 % Wilson intervals: one column of panels per gripper class."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = [r for r in rows if r.gripper != "all"]
+    grippers = list(dict.fromkeys(r.gripper for r in rows))
+    receivers = list(dict.fromkeys(r.receiver for r in rows))
+    names = list(dict.fromkeys(r.stats.controller for r in rows))
+    taking = [k for k in receivers if any(r.receiver == k and r.stats.taking_episodes for r in rows)]
+    cell = {(r.receiver, r.gripper, r.stats.controller): r.stats for r in rows}
+    fig, axes = plt.subplots(2, len(grippers), figsize=(4.2 * len(grippers), 7.5), sharey="row", squeeze=False)
+    width = 0.8 / len(names)
+    for col, g in enumerate(grippers):
+        for row, (kinds, attr, ci, title) in enumerate((
+                (receivers, "drop_rate", "drop_ci", "drop rate, %"),
+                (taking, "release_success_rate", "release_success_ci", "release success (taking), %"))):
+            ax = axes[row][col]
+            for j, name in enumerate(names):
+                stats = [cell.get((k, g, name)) for k in kinds]
+                val = np.array([100 * getattr(s, attr) if s else np.nan for s in stats])
+                lo = np.array([100 * getattr(s, ci)[0] if s else np.nan for s in stats])
+                hi = np.array([100 * getattr(s, ci)[1] if s else np.nan for s in stats])
+                x = np.arange(len(kinds)) + (j - (len(names) - 1) / 2) * width
+                ax.bar(x, val, width, label=name)
+                ax.errorbar(x, val, yerr=[val - lo, hi - val], fmt="none", ecolor="k", capsize=2, lw=0.8)
+            ax.set_xticks(np.arange(len(kinds)), kinds, rotation=35, ha="right", fontsize=8)
+            ax.set_title(g if row == 0 else "", fontsize=10)
+            if col == 0:
+                ax.set_ylabel(title)
+    axes[0][0].legend(fontsize=8)
+    fig.suptitle("per sub-population (receiver kind × gripper class), 95 % Wilson CI")
+    fig.tight_layout()
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / f"{prefix}_subpopulations.png"
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path

@@ -3,7 +3,10 @@
 Every controller runs the SAME episodes (common random numbers: chunk i of seed s is drawn
 from `SeedSequence(s).spawn(...)[i]` whatever the controller), sampled by
 `services.studies.gripper.episodes` over pull angle, friction, mass, receiver behaviour and timing,
-and sensor noise. Each episode is judged from ground truth by `robot_sim.contact.outcome`.
+gripper class and sensor noise, from a named population (`services.studies.gripper.populations`:
+"wide" by default, "narrow" the first benchmark's). Each episode is judged from ground truth by
+`robot_sim.contact.outcome`. The controllers step at the period of their chunk's gripper class
+(`SimConfig.control_period_s`: 10 ms, or the loop's period for a loop faster than 100 Hz).
 
 Per controller:
 - drop rate over all episodes, with a 95 % Wilson interval (`scipy.stats.binomtest`);
@@ -14,7 +17,9 @@ Per controller:
 - release time: release − start of the receiver's grasp, median over handed-over taking
   episodes, s;
 - mode chatter: mean number of ground-truth mode switches per episode;
-- the drop rate per receiver behaviour.
+- the drop rate per receiver behaviour;
+- all of the above per declared sub-population (receiver kind × gripper class) and overall
+  (`subpopulation_stats`): the sub-populations' counts add up to the overall ones.
 
 The tables, CSV and plots of a run: `services.studies.gripper.bench_report`.
 
@@ -48,11 +53,20 @@ from services.studies.gripper.attribution import (
     paired_overshoot,
     run_attributed,
 )
-from services.studies.gripper.episodes import BEHAVIOUR_NAMES, EpisodeDistribution, sample_chunk
+from services.studies.gripper.episodes import BEHAVIOUR_NAMES, GRIPPER_CODES, EpisodeDistribution, sample_chunk
+from services.studies.gripper.populations import (
+    DEFAULT_POPULATION,
+    POPULATIONS,
+    ChunkPlan,
+    plan_chunks,
+    population,
+    subpopulations,
+)
 
 log = logging.getLogger(__name__)
 
-__all__ = ["BenchResult", "ControllerStats", "DEFAULT_CONTROLLERS", "run_benchmark", "summarise"]
+__all__ = ["BenchResult", "ControllerStats", "DEFAULT_CONTROLLERS", "SubpopulationStats", "run_benchmark", "summarise",
+           "subpopulation_stats"]
 
 DEFAULT_CONTROLLERS = ("FS1", "FS2", "FS3", "HI", "force-threshold", "displacement", "SG")
 #: Bounds run next to the controllers with `attribute=True` (see services.studies.gripper.attribution).
@@ -74,27 +88,42 @@ class BenchResult:
     seed: int
     wall_time_s: float
     holds_at_release: dict[str, np.ndarray] | None = None
+    kind: np.ndarray | None = None
+    gripper: np.ndarray | None = None
+    dist: EpisodeDistribution | None = None
+    population: str = ""
+    control_period_s: np.ndarray | None = None
+
+
+def build_controller(name: str, period_s: float, overrides: dict | None = None):
+    """A controller (or reference) of the benchmark that steps every `period_s` (s): the
+    period of the chunk it runs in, so that the controller's own integrators (SG's gain,
+    the displacement baseline's virtual hand) see the time step they really run at."""
+    if name in REFERENCES:
+        return REFERENCES[name](period_s=period_s)
+    return make_controller(name, period_s=period_s, **(overrides or {}))
 
 
 def _run_job(args) -> tuple[str, int, BatchOutcome, dict]:
-    name, index, seq, n, dist, overrides = args
+    name, plan, dist, overrides = args
+    seq = plan.seed
     # A fresh copy: `spawn` counts its children, and the same chunk seed serves every controller.
     draw_seq, noise_seq = np.random.SeedSequence(seq.entropy, spawn_key=seq.spawn_key).spawn(2)
-    chunk = sample_chunk(dist, n, np.random.default_rng(draw_seq))
-    if name in REFERENCES:
-        controller = REFERENCES[name](period_s=0.01)
-    else:
-        controller = make_controller(name, period_s=0.01, **overrides)
+    chunk = sample_chunk(dist, plan.size, np.random.default_rng(draw_seq), gripper=plan.gripper, kinds=plan.kinds)
+    controller = build_controller(name, chunk.control_period_s, overrides)
     attributed = run_attributed(chunk.config, chunk.receivers, controller, seed=noise_seq)
     draws = dict(mass_kg=chunk.mass_kg, mu_static=chunk.mu_static, pull_angle_rad=chunk.pull_angle_rad,
-                 behaviour=chunk.behaviour, grasp_start_s=chunk.grasp_start_s)
-    return name, index, attributed, draws
+                 behaviour=chunk.behaviour, grasp_start_s=chunk.grasp_start_s, kind=chunk.kind,
+                 gripper=np.full(plan.size, GRIPPER_CODES[chunk.gripper], dtype=np.int64),
+                 control_period_s=np.full(plan.size, controller.period_s))
+    return name, plan.index, attributed, draws
 
 
 def run_benchmark(controllers: list[str], n_episodes: int, seed: int = 1, workers: int | None = None,
-                  chunk_size: int = 250, dist: EpisodeDistribution | None = None, progress: bool = True,
+                  chunk_size: int = 250, dist: EpisodeDistribution | str | None = None, progress: bool = True,
                   overrides: dict[str, dict] | None = None, attribute: bool = False) -> BenchResult:
-    """Run `n_episodes` episodes per controller (the same episodes for all).
+    """Run `n_episodes` episodes per controller (the same episodes for all), drawn from `dist`
+    (a distribution, or the name of one of `POPULATIONS`; default "wide").
 
     With `attribute`, the two references of `services.studies.gripper.attribution` run on the same
     episodes too (`max-hold`, `reactive-max-hold`), so each drop can be attributed."""
@@ -111,11 +140,13 @@ def run_benchmark(controllers: list[str], n_episodes: int, seed: int = 1, worker
     workers = (os.cpu_count() or 1) if workers is None else int(workers)
     if workers < 1:
         raise GripperError(f"workers must be >= 1, got {workers}")
-    dist = dist or EpisodeDistribution()
+    if not isinstance(dist, EpisodeDistribution):
+        dist = population(DEFAULT_POPULATION if dist is None else dist)
+    pop_name = next((k for k, d in POPULATIONS.items() if d == dist), "custom")
     overrides = overrides or {}
-    sizes = [min(chunk_size, n_episodes - i) for i in range(0, n_episodes, chunk_size)]
-    seqs = np.random.SeedSequence(seed).spawn(len(sizes))
-    jobs = [(name, i, seqs[i], s, dist, overrides.get(name, {})) for name in controllers for i, s in enumerate(sizes)]
+    plans: list[ChunkPlan] = plan_chunks(dist, n_episodes, chunk_size, seed)
+    sizes = [p.size for p in plans]
+    jobs = [(name, p, dist, overrides.get(name, {})) for name in controllers for p in plans]
     parts: dict[str, dict[int, BatchOutcome]] = {c: {} for c in controllers}
     draws: dict[int, dict] = {}
     t0 = time.perf_counter()
@@ -142,7 +173,9 @@ def run_benchmark(controllers: list[str], n_episodes: int, seed: int = 1, worker
     holds = {c: np.concatenate([parts[c][i].holds_at_release for i in range(len(sizes))]) for c in controllers}
     return BenchResult(outcomes=outcomes, mass_kg=cat("mass_kg"), mu_static=cat("mu_static"),
                        pull_angle_rad=cat("pull_angle_rad"), behaviour=cat("behaviour"),
-                       grasp_start_s=cat("grasp_start_s"), seed=seed, wall_time_s=wall, holds_at_release=holds)
+                       grasp_start_s=cat("grasp_start_s"), seed=seed, wall_time_s=wall, holds_at_release=holds,
+                       kind=cat("kind"), gripper=cat("gripper"), dist=dist, population=pop_name,
+                       control_period_s=cat("control_period_s"))
 
 
 # --------------------------------------------------------------------------- statistics
@@ -173,12 +206,16 @@ class ControllerStats:
     release_time_median_s: float
     mode_switches_mean: float
     drop_rate_by_behaviour: dict[str, float]
+    handed_over: int | None = None
+    held_to_end: int | None = None
 
     def row(self) -> dict:
         """Flat dict for CSV."""
         d = {"controller": self.controller, "episodes": self.episodes, "drops": self.drops,
              "drop_rate": self.drop_rate, "drop_ci_low": self.drop_ci[0], "drop_ci_high": self.drop_ci[1],
-             "taking_episodes": self.taking_episodes, "release_success_rate": self.release_success_rate,
+             "taking_episodes": self.taking_episodes, "handed_over": self.handed_over,
+             "held_to_end": self.held_to_end,
+             "release_success_rate": self.release_success_rate,
              "release_success_ci_low": self.release_success_ci[0],
              "release_success_ci_high": self.release_success_ci[1],
              "overshoot_median_n": self.overshoot_median_n, "overshoot_p95_n": self.overshoot_p95_n,
@@ -193,7 +230,9 @@ def _pct(a: np.ndarray, q: float) -> float:
 
 def controller_stats(name: str, outcome: BatchOutcome, behaviour: np.ndarray, grasp_start_s: np.ndarray,
                      mask: np.ndarray | None = None) -> ControllerStats:
-    """Figures of one controller over the episodes selected by `mask` (all by default)."""
+    """Figures of one controller over the episodes selected by `mask` (all by default).
+    `held_to_end`: taking episodes neither released nor dropped when the episode ended (the
+    gripper kept the object from a receiver who wanted it)."""
     sel = np.ones(len(outcome), dtype=bool) if mask is None else np.asarray(mask, dtype=bool)
     dropped = outcome.dropped[sel]
     beh = behaviour[sel]
@@ -215,7 +254,8 @@ def controller_stats(name: str, outcome: BatchOutcome, behaviour: np.ndarray, gr
         overshoot_median_n=_pct(over, 50), overshoot_p95_n=_pct(over, 95),
         release_time_median_s=_pct(rel_t, 50),
         mode_switches_mean=float(outcome.mode_switch_count[sel].mean()) if n else math.nan,
-        drop_rate_by_behaviour=by_beh,
+        drop_rate_by_behaviour=by_beh, handed_over=int(handed.sum()),
+        held_to_end=int((~outcome.released[sel][take] & ~dropped[take]).sum()),
     )
 
 
@@ -223,6 +263,33 @@ def summarise(result: BenchResult) -> list[ControllerStats]:
     """Per-controller figures, in the order the controllers were run (references left out)."""
     return [controller_stats(name, out, result.behaviour, result.grasp_start_s)
             for name, out in result.outcomes.items() if name not in REFERENCES]
+
+
+@dataclass(frozen=True)
+class SubpopulationStats:
+    """Figures of one controller over one sub-population (receiver and gripper labels of
+    `populations.SubPopulation`; both "all" for the overall figures)."""
+
+    receiver: str
+    gripper: str
+    stats: ControllerStats
+
+
+def subpopulation_stats(result: BenchResult) -> list[SubpopulationStats]:
+    """One row per declared sub-population per controller (sub-population by
+    sub-population, the controllers in run order), then one overall row per controller.
+    Every episode is in exactly one sub-population, so the episodes, drops, taking episodes
+    and handovers of a controller's rows add up to its overall row's."""
+    if result.kind is None or result.gripper is None or result.dist is None:
+        raise GripperError("per-sub-population figures need a run of run_benchmark (episode kinds and grippers)")
+    names = [n for n in result.outcomes if n not in REFERENCES]
+    rows = []
+    for sp in subpopulations(result.dist):
+        mask = sp.mask(result.kind, result.gripper)
+        for n in names:
+            stats_n = controller_stats(n, result.outcomes[n], result.behaviour, result.grasp_start_s, mask)
+            rows.append(SubpopulationStats(sp.receiver_label, sp.gripper_label, stats_n))
+    return rows + [SubpopulationStats("all", "all", s) for s in summarise(result)]
 
 
 def drop_attribution(result: BenchResult) -> list[dict]:

@@ -2,14 +2,23 @@
 
 One chunk of episodes is one vectorised run of the realistic contact plant
 (`robot_sim.contact`). Within a chunk every episode has its own object mass, friction,
-pull angle, receiver behaviour and timing; the sensor noise levels are drawn per chunk
-(the plant's sensor model takes one noise level per run).
+pull angle, receiver kind and timing; the sensor noise levels are drawn per chunk (the
+plant's sensor model takes one noise level per run), and so is the gripper class (one
+actuator and one controller period per run). The named distributions ("narrow", the first
+benchmark's, and "wide") and their sub-populations: `services.studies.gripper.populations`.
 
 Distributions (gripper frame, x toward the receiver, y down; φ > 0 pulls downward):
 - pull angle φ ~ U(−45°, 45°) (bumps come from the receiver's side: direction π + φ);
 - μ_s ~ U(0.2, 0.9), μ_k = μ_s × U(0.7, 0.95) (both pads together);
 - mass ~ U(0.05, 0.6) kg;
-- behaviour: taking 40 %, dropping 20 %, hesitating 20 %, bumping 20 % (weights settable);
+- receiver kind (`RECEIVER_KINDS`): taking 40 %, dropping 20 %, hesitating 20 %, bumping
+  20 % (weights settable; "pull-first" and "drag" are taking receivers who pull first and
+  take up the weight 0.3–0.8 s after their pull starts, over 0.3–0.7 s, or never: weight 0
+  by default, in the "wide" population);
+- gripper class (`GRIPPER_CLASSES`): "slow" (50 N/s, 25 Hz, the thesis's Baxter) by
+  default; "fast-loop" (50 N/s, 250 Hz), "fast-force" (500 N/s, 25 Hz), "fast" (500 N/s,
+  250 Hz) and "medium" (150 N/s, 100 Hz) settable. The controllers step at the class's
+  control period (100 Hz, or the loop's rate above 100 Hz, with the F/T read as often);
 - timing: reach starts U(0.1, 0.3) s, lasts U(0.6, 1.0) s over U(0.2, 0.35) m; load transfer
   U(0.3, 0.7) s (taking; thesis §3.2); pull after U(0, 0.2) s, over U(0.5, 1.2) s and
   U(0.1, 0.3) m; grasp strength U(10, 30) N; weight feed-forward U(0.8, 1.0) (taking);
@@ -28,26 +37,57 @@ against runs with one scalar mass each, bit for bit).
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from robot_sim.contact.config import GRAVITY_M_S2, ObjectParams, SensorParams, SimConfig
-from robot_sim.contact.receiver import (
-    Behaviour,
-    ReceiverParams,
-    bumping,
-    dropping,
-    hesitating,
-    stack_receivers,
-    taking,
-)
+from robot_sim.contact.config import GRAVITY_M_S2, ContactSimError, ObjectParams, SensorParams, SimConfig
+from robot_sim.contact.receiver import Behaviour, ReceiverParams, stack_receivers
+from robot_sim.contact.sampling import sample_one
 from services.gripper.errors import GripperError
 
-__all__ = ["BEHAVIOUR_NAMES", "ChunkSpec", "EpisodeDistribution", "EpisodeObjectParams", "sample_chunk"]
+__all__ = ["BEHAVIOUR_NAMES", "ChunkSpec", "EpisodeDistribution", "EpisodeObjectParams", "GRIPPER_CLASSES",
+           "GRIPPER_CODES", "GripperClass", "RECEIVER_KINDS", "sample_chunk"]
 
 BEHAVIOUR_NAMES = {int(Behaviour.TAKING): "taking", int(Behaviour.DROPPING): "dropping",
                    int(Behaviour.BUMPING): "bumping", int(Behaviour.HESITATING): "hesitating"}
+#: Receiver kinds, in code order (the code of the first four is their `Behaviour`): the
+#: taking receiver who lifts with the grasp ("taking"), and the two who pull first.
+RECEIVER_KINDS = ("taking", "dropping", "bumping", "hesitating", "pull-first", "drag")
+
+
+@dataclass(frozen=True)
+class GripperClass:
+    """A gripper actuator of the benchmark: its force rate (N/s, the finger speed limit
+    through the spring) and position-loop rate (Hz). The loop period must be a whole number
+    of plant steps; the controllers step at `SimConfig.control_period_s` of the setup
+    (`setup`): 100 Hz with a loop up to 100 Hz, the loop's rate above."""
+
+    name: str
+    force_rate_n_per_s: float
+    loop_rate_hz: float
+
+    def setup(self, base: SimConfig) -> SimConfig:
+        """`base` with this gripper (`SimConfig.with_gripper_rates`)."""
+        try:
+            return base.with_gripper_rates(self.force_rate_n_per_s, self.loop_rate_hz)
+        except ContactSimError as exc:
+            raise GripperError(f"gripper class {self.name!r}: {exc}") from None
+
+    @property
+    def label(self) -> str:
+        """Name with its numbers, e.g. "fast (500 N/s, 250 Hz)"."""
+        return f"{self.name} ({self.force_rate_n_per_s:g} N/s, {self.loop_rate_hz:g} Hz)"
+
+
+#: The gripper classes, in code order. "slow" is the thesis's Baxter gripper (the plant's
+#: default actuator): its setup is the default config, bit for bit.
+GRIPPER_CLASSES = {c.name: c for c in (
+    GripperClass("slow", 50.0, 25.0), GripperClass("fast-loop", 50.0, 250.0), GripperClass("fast-force", 500.0, 25.0),
+    GripperClass("fast", 500.0, 250.0), GripperClass("medium", 150.0, 100.0))}
+#: Gripper class name → its code (index in `GRIPPER_CLASSES`).
+GRIPPER_CODES = {name: i for i, name in enumerate(GRIPPER_CLASSES)}
 
 
 @dataclass(frozen=True)
@@ -86,6 +126,8 @@ class EpisodeDistribution:
     mass_kg: tuple[float, float] = (0.05, 0.6)
     behaviour_weights: dict[str, float] = field(
         default_factory=lambda: {"taking": 0.4, "dropping": 0.2, "hesitating": 0.2, "bumping": 0.2})
+    gripper_weights: dict[str, float] = field(default_factory=lambda: {"slow": 1.0})
+    stratified: bool = False
     ft_noise_std_n: tuple[float, float] = (0.01, 0.15)
     ft_bias_std_n: float = 0.05
     accel_noise_std_m_s2: tuple[float, float] = (0.0, 1.5)
@@ -100,13 +142,14 @@ class EpisodeDistribution:
             raise GripperError("masses and friction coefficients must be > 0")
         if not (0 < self.mu_kinetic_ratio[0] and self.mu_kinetic_ratio[1] <= 1):
             raise GripperError("mu_kinetic_ratio must lie in (0, 1]")
-        unknown = set(self.behaviour_weights) - set(BEHAVIOUR_NAMES.values())
-        if unknown or not self.behaviour_weights:
-            raise GripperError(f"behaviour_weights: unknown behaviours {sorted(unknown)}; "
-                               f"use {sorted(BEHAVIOUR_NAMES.values())}")
-        w = np.array(list(self.behaviour_weights.values()), dtype=float)
-        if np.any(w < 0) or not w.sum() > 0:
-            raise GripperError("behaviour_weights must be >= 0 and not all zero")
+        for name, known in (("behaviour_weights", RECEIVER_KINDS), ("gripper_weights", tuple(GRIPPER_CLASSES))):
+            weights = getattr(self, name)
+            unknown = set(weights) - set(known)
+            if unknown or not weights:
+                raise GripperError(f"{name}: unknown names {sorted(unknown)}; use {list(known)}")
+            w = np.array(list(weights.values()), dtype=float)
+            if np.any(w < 0) or not w.sum() > 0 or not np.all(np.isfinite(w)):
+                raise GripperError(f"{name} must be finite, >= 0 and not all zero")
 
 
 @dataclass(frozen=True)
@@ -120,44 +163,50 @@ class ChunkSpec:
     pull_angle_rad: np.ndarray
     behaviour: np.ndarray
     grasp_start_s: np.ndarray
+    kind: np.ndarray | None = None
+    gripper: str = "slow"
+
+    @property
+    def control_period_s(self) -> float:
+        """Period the controllers step at in this chunk, s."""
+        return self.config.control_period_s
 
 
-def _one_receiver(kind: str, phi: float, weight_n: float, rng: np.random.Generator) -> ReceiverParams:
-    w_est = weight_n * rng.uniform(0.9, 1.1)
-    common = dict(pull_angle_rad=phi, weight_n=w_est, reach_start_s=rng.uniform(0.1, 0.3),
-                  reach_duration_s=rng.uniform(0.6, 1.0), reach_distance_m=rng.uniform(0.2, 0.35))
-    if kind == "taking":
-        return taking(**common, transfer_s=rng.uniform(0.3, 0.7), pull_delay_s=rng.uniform(0.0, 0.2),
-                      pull_duration_s=rng.uniform(0.5, 1.2), pull_distance_m=rng.uniform(0.1, 0.3),
-                      grasp_strength_n=rng.uniform(10.0, 30.0), weight_feedforward=rng.uniform(0.8, 1.0))
-    if kind == "dropping":
-        return dropping(**common, transfer_s=rng.uniform(0.2, 0.5), pull_delay_s=rng.uniform(0.0, 0.2),
-                        pull_duration_s=rng.uniform(0.5, 1.2), pull_distance_m=rng.uniform(0.1, 0.3),
-                        letgo_after_s=rng.uniform(0.8, 1.6), grasp_strength_n=rng.uniform(10.0, 30.0))
-    if kind == "hesitating":
-        return hesitating(**common, grasp_build_s=rng.uniform(0.2, 0.4), grasp_level=rng.uniform(0.4, 0.9),
-                          pull_distance_m=rng.uniform(0.0, 0.02), letgo_after_s=rng.uniform(0.2, 0.6),
-                          grasp_strength_n=rng.uniform(10.0, 30.0))
-    return bumping(pull_angle_rad=math.pi + phi, weight_n=w_est, bump_start_s=rng.uniform(0.5, 1.5),
-                   penetration_m=rng.uniform(0.02, 0.04), sweep_duration_s=rng.uniform(0.08, 0.2))
+def _chunk_gripper(dist: EpisodeDistribution, gripper: str | None) -> GripperClass:
+    if gripper is None:
+        if len(dist.gripper_weights) != 1:
+            raise GripperError(f"a chunk has one gripper class: name one of {list(dist.gripper_weights)}")
+        gripper = next(iter(dist.gripper_weights))
+    if gripper not in GRIPPER_CLASSES:
+        raise GripperError(f"unknown gripper class {gripper!r}; use {list(GRIPPER_CLASSES)}")
+    return GRIPPER_CLASSES[gripper]
 
 
 def sample_chunk(dist: EpisodeDistribution, n: int, rng: np.random.Generator,
-                 base: SimConfig | None = None) -> ChunkSpec:
-    """Draw `n` episodes (one vectorised chunk) from `dist` with `rng`."""
+                 base: SimConfig | None = None, gripper: str | None = None,
+                 kinds: Sequence[str] | None = None) -> ChunkSpec:
+    """Draw `n` episodes (one vectorised chunk) from `dist` with `rng`, with the gripper
+    class `gripper` (default: the distribution's only one) and the receiver kinds `kinds`
+    (one per episode; default: drawn with the distribution's weights)."""
     if n < 1:
         raise GripperError(f"a chunk needs at least one episode, got {n}")
     base = base or SimConfig()
-    kinds = list(dist.behaviour_weights)
-    p = np.array([dist.behaviour_weights[k] for k in kinds], dtype=float)
+    grip = _chunk_gripper(dist, gripper)
+    names = list(dist.behaviour_weights)
+    p = np.array([dist.behaviour_weights[k] for k in names], dtype=float)
     p /= p.sum()
     mass = rng.uniform(*dist.mass_kg, n)
     mu_s = rng.uniform(*dist.mu_static, n)
     mu_k = mu_s * rng.uniform(*dist.mu_kinetic_ratio, n)
     phi = np.radians(rng.uniform(*dist.pull_angle_deg, n))
-    chosen = rng.choice(len(kinds), size=n, p=p)
-    receivers = [_one_receiver(kinds[c], float(phi[i]), float(mass[i] * GRAVITY_M_S2), rng)
-                 for i, c in enumerate(chosen)]
+    if kinds is None:
+        chosen = [names[c] for c in rng.choice(len(names), size=n, p=p)]
+    else:
+        chosen = list(kinds)
+        if len(chosen) != n or not set(chosen) <= set(RECEIVER_KINDS):
+            raise GripperError(f"need {n} receiver kinds out of {list(RECEIVER_KINDS)}, got {len(chosen)}")
+    receivers = [sample_one(k, rng, float(mass[i] * GRAVITY_M_S2), float(phi[i]), math.pi + float(phi[i]))
+                 for i, k in enumerate(chosen)]
     stacked = stack_receivers(receivers)
     sensors = replace(base.sensors, ft_noise_std_n=float(rng.uniform(*dist.ft_noise_std_n)),
                       ft_bias_std_n=dist.ft_bias_std_n,
@@ -165,10 +214,11 @@ def sample_chunk(dist: EpisodeDistribution, n: int, rng: np.random.Generator,
     obj = EpisodeObjectParams(mass_kg=mass, mu_static=mu_s, mu_kinetic=mu_k,
                               pad_extent_x_m=base.obj.pad_extent_x_m, pad_extent_y_m=base.obj.pad_extent_y_m,
                               optical_face_x_m=base.obj.optical_face_x_m, optical_face_y_m=base.obj.optical_face_y_m)
-    config = replace(base, obj=obj, sensors=_checked_sensors(sensors))
+    config = grip.setup(replace(base, obj=obj, sensors=_checked_sensors(sensors)))
     return ChunkSpec(config=config, receivers=stacked, mass_kg=mass, mu_static=mu_s, pull_angle_rad=phi,
                      behaviour=np.asarray(stacked.behaviour, dtype=np.int64),
-                     grasp_start_s=np.asarray(stacked.grasp_start_s, dtype=float))
+                     grasp_start_s=np.asarray(stacked.grasp_start_s, dtype=float),
+                     kind=np.array([RECEIVER_KINDS.index(k) for k in chosen], dtype=np.int64), gripper=grip.name)
 
 
 def _checked_sensors(sensors: SensorParams) -> SensorParams:

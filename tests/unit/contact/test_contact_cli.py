@@ -33,6 +33,23 @@ def test_external_controller_by_import_path(tmp_path):
     assert doc["released"] is False and doc["slip_distance_m"] == 0.0 and doc["mode_switch_count"] == 0
 
 
+def test_drag_with_a_fast_gripper_and_a_wide_batch(tmp_path, capsys):
+    out = tmp_path / "ep.json"
+    # A drag released at 1.3 s ends in the receiver's hand; the fast gripper releases it sooner.
+    for rate, loop in (("50", "25"), ("500", "250")):
+        assert main(["episode", "--behaviour", "drag", "--controller", "release-after", "--grip-n", "40",
+                     "--release-at-s", "1.3", "--force-rate-n-s", rate, "--loop-rate-hz", loop, "--duration-s", "3",
+                     "--json", str(out)]) == 0
+        doc = json.loads(out.read_text())
+        assert doc["handed_over"] is True and doc["dropped"] is False
+        if rate == "50":
+            slow_release = doc["release_time_s"]
+    assert doc["release_time_s"] < slow_release - 0.1  # 40 N to 0: 0.8 s at 50 N/s, 0.08 s at 500 N/s
+    assert main(["batch", "--behaviour", "mixed-wide", "-n", "6", "--workers", "1", "--chunk-size", "6",
+                 "--duration-s", "1.0", "--no-progress", "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["episodes"] == 6
+
+
 def test_batch_summary(tmp_path, capsys):
     out = tmp_path / "b.json"
     code = main(["batch", "--behaviour", "dropping", "-n", "10", "--workers", "1", "--chunk-size", "10",
@@ -48,6 +65,7 @@ def test_batch_summary(tmp_path, capsys):
     (["episode", "--controller", "no.such.module:X"], "cannot load controller"),
     (["batch", "-n", "0"], "n_episodes must be >= 1"),
     (["episode", "--dt-s", "0.5"], "dt_s"),
+    (["episode", "--loop-rate-hz", "150"], "whole number of plant steps"),
 ])
 def test_bad_input_one_line_error(argv, words, capsys):
     assert main(argv) == 2

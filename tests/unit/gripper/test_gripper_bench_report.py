@@ -5,8 +5,10 @@ from __future__ import annotations
 import csv
 import math
 
-from services.studies.gripper.bench_report import attribution_table, markdown_table, write_csv
-from services.studies.gripper.benchmark import ControllerStats
+from dataclasses import replace
+
+from services.studies.gripper.bench_report import attribution_table, markdown_table, subpopulation_table, write_csv
+from services.studies.gripper.benchmark import ControllerStats, SubpopulationStats
 
 BY_BEHAVIOUR = {"taking": 0.0, "dropping": 0.25, "hesitating": math.nan, "bumping": 0.5}
 STATS = ControllerStats(
@@ -38,3 +40,16 @@ def test_csv_has_one_row_per_controller_with_the_behaviour_columns(tmp_path):
         rows = list(csv.DictReader(fh))
     assert len(rows) == 2 and rows[0]["controller"] == "SG" and rows[0]["drop_ci_high"] == "0.59"
     assert list(rows[0])[-4:] == [f"drop_rate_{k}" for k in BY_BEHAVIOUR]
+
+
+def test_sub_population_rows_in_percent_with_dashes_where_nobody_takes():
+    taking = SubpopulationStats("taking, drag (never lifts)", "fast (500 N/s, 250 Hz)",
+                                replace(STATS, handed_over=3, held_to_end=0))
+    bumps = SubpopulationStats("bumping", "slow (50 N/s, 25 Hz)", replace(
+        STATS, taking_episodes=0, handed_over=0, release_success_rate=math.nan,
+        release_success_ci=(math.nan, math.nan), overshoot_median_n=math.nan, release_time_median_s=math.nan))
+    lines = subpopulation_table([taking, bumps]).splitlines()
+    assert len(lines) == 4 and lines[1] == "|" + "---|" * 10
+    assert lines[2] == ("| taking, drag (never lifts) | fast (500 N/s, 250 Hz) | SG | 8 | 2 | 25.0 [7.0, 59.0] "
+                        "| 3 / 0 / 3 | 100.0 [44.0, 100.0] | 4.50 / – | 0.457 |")
+    assert lines[3] == "| bumping | slow (50 N/s, 25 Hz) | SG | 8 | 2 | 25.0 [7.0, 59.0] | – | – | – | – |"

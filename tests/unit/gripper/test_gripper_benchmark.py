@@ -85,14 +85,18 @@ def test_same_episodes_for_every_controller_and_repeatable():
 def test_cli_writes_table_and_csv_and_rejects_bad_input(tmp_path, capsys):
     assert study_main(["bench", "--controllers", "HI", "-n", "4", "--chunk-size", "4", "--workers", "1", "--no-plots",
                    "--no-progress", "--out", str(tmp_path)]) == 0
-    assert (tmp_path / "table.md").read_text().count("| HI |") == 1
+    lines = (tmp_path / "table.md").read_text().splitlines()
+    assert sum(line.startswith("| HI |") for line in lines) == 1  # the headline row
+    # and one row per sub-population of the default "wide" population (6 kinds × 4 grippers), plus "all"
+    assert sum(line.split(" | ")[2:3] == ["HI"] for line in lines) == 6 * 4 + 1
     assert (tmp_path / "results.csv").read_text().startswith("controller,episodes,drops")
     assert study_main(["bench", "--controllers", "FS9", "-n", "4", "--no-progress", "--out", str(tmp_path)]) == 2
     assert "unknown controller" in capsys.readouterr().err
 
 
 def test_cli_set_overrides_one_controller_and_refuses_bad_ones(tmp_path, capsys):
-    common = ["-n", "4", "--chunk-size", "4", "--workers", "1", "--no-plots", "--no-progress", "--seed", "5"]
+    common = ["-n", "4", "--chunk-size", "4", "--workers", "1", "--no-plots", "--no-progress", "--seed", "5",
+              "--population", "narrow"]
     assert study_main(["bench", "--controllers", "SG", *common, "--out", str(tmp_path / "v3")]) == 0
     assert study_main(["bench", "--controllers", "SG", *common, "--out", str(tmp_path / "as_v2"),
                        "--set", "SG:hold_per_weight=4", "--set", "SG:share_cap=3",
