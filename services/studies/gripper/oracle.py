@@ -180,6 +180,8 @@ class ClairvoyantResult:
         source: `FAMILY` or `SEARCH` (a random sequence beat the family).
         max_hold_dropped: the max-hold run drops it.
         searched: episodes the falsification search ran on.
+        release_window: release latches of the envelope family that succeed (taking
+            receivers: how much timing slack a clairvoyant has; 0 where not tried).
     """
 
     success: np.ndarray
@@ -190,6 +192,7 @@ class ClairvoyantResult:
     source: np.ndarray
     max_hold_dropped: np.ndarray
     searched: np.ndarray
+    release_window: np.ndarray
 
     def __len__(self) -> int:
         return int(self.success.shape[0])
@@ -262,9 +265,12 @@ def clairvoyant_bound(config: SimConfig, receivers: ReceiverParams, margin: floa
     tried = np.flatnonzero(taking | hold.dropped)
     episode = np.repeat(tried, n_latch)
     latch = np.tile(np.arange(n_latch), len(tried))
+    window = np.zeros(n, dtype=np.int64)
     if len(tried):
         out = _run_tables(config, receivers, episode, envelope_commands(need[episode], latch, margin, f_max[episode]))
         best.offer(tried, n_latch, out, latch, FAMILY)
+        ok = ~out.dropped & (out.handed_over | ~taking[episode])
+        window[tried] = ok.reshape(len(tried), n_latch).sum(axis=1)
     searched = np.zeros(n, dtype=bool)
     failing = best.failing()
     if search > 0 and len(failing):
@@ -277,4 +283,4 @@ def clairvoyant_bound(config: SimConfig, receivers: ReceiverParams, margin: floa
     success = ~best.dropped & (best.handed_over | ~taking)
     return ClairvoyantResult(success=success, dropped=best.dropped.copy(), handed_over=best.handed_over.copy(),
                              overshoot_n=best.overshoot_n, release_latch=best.release_latch, source=best.source,
-                             max_hold_dropped=hold.dropped.copy(), searched=searched)
+                             max_hold_dropped=hold.dropped.copy(), searched=searched, release_window=window)

@@ -19,8 +19,10 @@ actuator (25 Hz loop, 50 N/s, [0, 140] N).
 with failure = dropped, or (taking receiver) not handed over: first no drop and the handover,
 then the lowest overshoot (1e-4 per N is below one failure in 500 episodes for overshoots
 under 20 N). Parameters are chosen globally (one law for all episodes: a real sensor-only
-law) or per behaviour class (the law is told the class: a bound for a perfect intent
-classifier with this family), never per episode. The optimiser is
+law), globally under an overshoot cap (J + 0.05 per N of p95 overshoot over all taking
+episodes above HI's p95 on the same tuning episodes: the bound for a law that must not pull
+harder than HI), or per behaviour class (the law is told the class: a bound for a perfect
+intent classifier with this family), never per episode. The optimiser is
 `scipy.optimize.differential_evolution` over `BOUNDS`, on the benchmark's tuning seed; the
 result is evaluated on other seeds (`handover-study bench`). It is a bound over this family
 only: a law outside it may do better.
@@ -51,6 +53,8 @@ BOUNDS = {"hold_per_weight": (1.0, 300.0), "follow_gain": (0.0, 5.0), "release_s
 LOG_SCALED = ("hold_per_weight", "confirm_s")
 #: Weight of the mean overshoot (per N) in the objective J.
 OVERSHOOT_WEIGHT_PER_N = 1e-4
+#: Penalty per N of p95 overshoot above the cap, for the capped member (5 failure points per N).
+CAP_PENALTY_PER_N = 0.05
 #: Where `handover-study oracle-tune` writes the tuned parameters and the benchmark reads them.
 PARAMS_PATH = Path(__file__).with_name("oracle_family_params.json")
 
@@ -151,19 +155,29 @@ def bench_chunk(seed: int, n_episodes: int, chunk_size: int, index: int,
 
 @dataclass(frozen=True)
 class Scores:
-    """Per member (rows) and episode (columns): failed, dropped, overshoot (N, NaN where not a
-    handed-over taking episode)."""
+    """Per member (rows) and episode (columns): failed, dropped, handed over, and the force
+    overshoot (N) of the taking episodes (NaN for the others)."""
 
     failed: np.ndarray
     dropped: np.ndarray
+    handed_over: np.ndarray
     overshoot_n: np.ndarray
 
-    def objective(self) -> np.ndarray:
-        """J per member (module docstring)."""
-        over = self.overshoot_n
+    def overshoot_p95_n(self) -> np.ndarray:
+        """p95 of the overshoot over all taking episodes per member (the benchmark table's), N."""
+        take = np.isfinite(self.overshoot_n[0])
+        return np.percentile(self.overshoot_n[:, take], 95, axis=1) if take.any() else np.zeros(len(self.failed))
+
+    def objective(self, overshoot_cap_n: float | None = None) -> np.ndarray:
+        """J per member (module docstring); with a cap, plus `CAP_PENALTY_PER_N` per N of p95
+        overshoot above it."""
+        over = np.where(self.handed_over, self.overshoot_n, np.nan)
         counted = np.isfinite(over).sum(axis=1)
         mean_over = np.where(counted > 0, np.nansum(over, axis=1) / np.maximum(counted, 1), 0.0)
-        return self.failed.mean(axis=1) + OVERSHOOT_WEIGHT_PER_N * mean_over
+        j = self.failed.mean(axis=1) + OVERSHOOT_WEIGHT_PER_N * mean_over
+        if overshoot_cap_n is not None:
+            j = j + CAP_PENALTY_PER_N * np.maximum(self.overshoot_p95_n() - overshoot_cap_n, 0.0)
+        return j
 
 
 def evaluate(chunks: list[tuple[ChunkSpec, np.random.SeedSequence]], members: np.ndarray,
@@ -172,7 +186,7 @@ def evaluate(chunks: list[tuple[ChunkSpec, np.random.SeedSequence]], members: np
     those of one behaviour code if given), all members in one batch per chunk."""
     members = np.atleast_2d(np.asarray(members, dtype=float))
     s = members.shape[0]
-    failed, dropped, over = [], [], []
+    failed, dropped, handed, over = [], [], [], []
     for chunk, noise in chunks:
         keep = np.flatnonzero(chunk.behaviour == behaviour) if behaviour is not None else np.arange(
             chunk.behaviour.size)
@@ -185,23 +199,26 @@ def evaluate(chunks: list[tuple[ChunkSpec, np.random.SeedSequence]], members: np
         fail = out.dropped | (take & ~out.handed_over)
         failed.append(fail.reshape(s, -1))
         dropped.append(out.dropped.reshape(s, -1))
-        over.append(np.where(take & out.handed_over, out.force_overshoot_n, np.nan).reshape(s, -1))
+        handed.append((take & out.handed_over).reshape(s, -1))
+        over.append(np.where(take, out.force_overshoot_n, np.nan).reshape(s, -1))
     if not failed:
         raise GripperError("no tuning episode of that behaviour")
-    return Scores(np.concatenate(failed, 1), np.concatenate(dropped, 1), np.concatenate(over, 1))
+    return Scores(*(np.concatenate(a, 1) for a in (failed, dropped, handed, over)))
 
 
 def tune(chunks: list[tuple[ChunkSpec, np.random.SeedSequence]], behaviour: int | None = None,
-         popsize: int = 4, maxiter: int = 12, seed: int = 0) -> tuple[FamilyParams, dict]:
+         popsize: int = 4, maxiter: int = 12, seed: int = 0,
+         overshoot_cap_n: float | None = None) -> tuple[FamilyParams, dict]:
     """The member with the lowest J on `chunks` (`scipy.optimize.differential_evolution` over
     `BOUNDS`, c_hold and τ on a log scale: `popsize` × 4 members per generation, `maxiter`
     generations, no early stop (tol = 0), no polish; the whole population runs in one batch per
-    chunk). Returns it and a summary."""
+    chunk). With `overshoot_cap_n`, J is penalised above that p95 overshoot. Returns the member and
+    a summary."""
     evaluations = [0]
 
     def objective(x: np.ndarray) -> np.ndarray:
         evaluations[0] += x.shape[1]
-        return evaluate(chunks, _natural(x).T, behaviour).objective()
+        return evaluate(chunks, _natural(x).T, behaviour).objective(overshoot_cap_n)
 
     res = optimize.differential_evolution(objective, _search_bounds(), popsize=popsize, maxiter=maxiter, tol=0.0,
                                           polish=False, seed=seed, vectorized=True, updating="deferred")
@@ -209,15 +226,18 @@ def tune(chunks: list[tuple[ChunkSpec, np.random.SeedSequence]], behaviour: int 
     scores = evaluate(chunks, best.as_array()[None, :], behaviour)
     summary = {"objective": float(res.fun), "failure_rate": float(scores.failed.mean()),
                "drop_rate": float(scores.dropped.mean()), "episodes": int(scores.failed.shape[1]),
+               "overshoot_p95_n": float(scores.overshoot_p95_n()[0]), "overshoot_cap_n": overshoot_cap_n,
                "evaluations": evaluations[0], "generations": int(res.nit)}
     return best, summary
 
 
 @dataclass(frozen=True)
 class TunedFamily:
-    """Tuned members: one global, one per behaviour class, and how they were tuned."""
+    """Tuned members: one global, one global under the overshoot cap, one per behaviour class,
+    and how they were tuned."""
 
     global_params: FamilyParams
+    capped: FamilyParams
     per_class: dict[str, FamilyParams]
     provenance: dict
 
@@ -227,8 +247,8 @@ class TunedFamily:
         return np.array(rows).reshape(-1, 4)
 
     def save(self, path: Path = PARAMS_PATH) -> Path:
-        doc = {"global": asdict(self.global_params), "per_class": {k: asdict(v) for k, v in self.per_class.items()},
-               "provenance": self.provenance}
+        doc = {"global": asdict(self.global_params), "global_capped": asdict(self.capped),
+               "per_class": {k: asdict(v) for k, v in self.per_class.items()}, "provenance": self.provenance}
         path.write_text(json.dumps(doc, indent=2, sort_keys=True) + "\n")
         return path
 
@@ -237,7 +257,8 @@ class TunedFamily:
         try:
             doc = json.loads(Path(path).read_text())
             per_class = {k: FamilyParams(**v) for k, v in doc["per_class"].items()}
-            tuned = TunedFamily(FamilyParams(**doc["global"]), per_class, doc.get("provenance", {}))
+            tuned = TunedFamily(FamilyParams(**doc["global"]), FamilyParams(**doc["global_capped"]), per_class,
+                                doc.get("provenance", {}))
         except (OSError, ValueError, KeyError, TypeError) as exc:
             raise GripperError(f"cannot read the tuned family parameters from {path}: {exc} "
                                "(run `handover-study oracle-tune`)") from exc

@@ -104,6 +104,7 @@ def test_a_taking_receiver_is_handed_over_without_a_drop_and_gently():
     bound = clairvoyant_bound(config, receivers, search=0)
     assert bound.success.all() and bound.handed_over.all() and not bound.dropped.any()
     assert 0 <= bound.release_latch[0] < latch_grid(config)[1]
+    assert 1 <= bound.release_window[0] < latch_grid(config)[1]  # a window of release latches, not all of them
     for name in ("HI", "SG"):  # the clairvoyant hands over with less force than a real controller
         real = run_vectorised(config, receivers, make_controller(name, period_s=0.01), seed=0)
         assert real.handed_over[0] and bound.overshoot_n[0] < real.force_overshoot_n[0]

@@ -71,12 +71,18 @@ def test_evaluate_runs_members_side_by_side_and_scores_them():
     assert s.failed.shape == (3, 12) and s.dropped.shape == (3, 12)
     assert np.all(s.failed >= s.dropped)  # every drop is a failure
     take = chunks[0][0].behaviour == 0
-    assert np.all(np.isnan(s.overshoot_n[:, ~take]))  # overshoot only of handed-over taking episodes
+    assert np.all(np.isnan(s.overshoot_n[:, ~take])) and np.all(np.isfinite(s.overshoot_n[:, take]))
+    assert not np.any(s.handed_over[:, ~take])
     j = s.objective()
-    mean_over = [np.mean(row[np.isfinite(row)]) if np.isfinite(row).any() else 0.0 for row in s.overshoot_n]
+    mean_over = [np.mean(row[h]) if h.any() else 0.0 for row, h in zip(s.overshoot_n, s.handed_over)]
     np.testing.assert_allclose(j, s.failed.mean(axis=1) + 1e-4 * np.array(mean_over))
+    p95 = s.overshoot_p95_n()
+    np.testing.assert_allclose(p95, np.percentile(s.overshoot_n[:, take], 95, axis=1))
+    cap = float(p95[0]) + 0.5
+    np.testing.assert_allclose(s.objective(cap), j + 0.05 * np.maximum(p95 - cap, 0.0))
+    assert s.objective(cap)[0] == j[0] and s.objective(cap)[1] > j[1]  # only the member above the cap pays
     assert s.dropped[2].all()  # a hold of W0 with μ_s < 1 lets every object slide out at rest
-    both = np.isfinite(s.overshoot_n[0]) & np.isfinite(s.overshoot_n[1])
+    both = s.handed_over[0] & s.handed_over[1]
     assert both.any() and np.all(s.overshoot_n[1, both] > s.overshoot_n[0, both])  # the hard grip pulls harder
     only = evaluate(chunks, members, behaviour=0)
     assert only.failed.shape == (3, int(take.sum()))
@@ -88,18 +94,23 @@ def test_tune_returns_a_member_in_the_box_and_is_repeatable():
     b, _ = tune(chunks, popsize=2, maxiter=1)
     assert a == b
     assert sa["evaluations"] == 16 and sa["episodes"] == 8 and 0.0 <= sa["failure_rate"] <= 1.0
+    c, sc = tune(chunks, popsize=2, maxiter=1, overshoot_cap_n=0.0)  # a cap nobody meets: it pays for overshoot
+    assert sc["overshoot_cap_n"] == 0.0 and sc["objective"] >= 0.05 * 0.5 * sc["overshoot_p95_n"]
     for name, (lo, hi) in BOUNDS.items():
         assert lo <= getattr(a, name) <= hi
 
 
 def test_tuned_parameters_round_trip_and_the_shipped_file_is_complete(tmp_path):
     p = FamilyParams(5.0, 1.0, 0.4, 0.1)
-    tuned = TunedFamily(p, {name: p for name in BEHAVIOUR_NAMES.values()}, {"seed": 1000})
+    tuned = TunedFamily(p, FamilyParams(3.0, 0.0, 0.5, 0.2), {name: p for name in BEHAVIOUR_NAMES.values()},
+                        {"seed": 1000})
     loaded = TunedFamily.load(tuned.save(tmp_path / "p.json"))
     assert loaded == tuned
     np.testing.assert_allclose(loaded.class_members(np.array([0, 2])), [p.as_array(), p.as_array()])
-    (tmp_path / "bad.json").write_text('{"global": %s, "per_class": {}}' % str(asdict(p)).replace("'", '"'))
+    as_json = str(asdict(p)).replace("'", '"')
+    (tmp_path / "bad.json").write_text('{"global": %s, "global_capped": %s, "per_class": {}}' % (as_json, as_json))
     with pytest.raises(GripperError, match="no tuned parameters"):
         TunedFamily.load(tmp_path / "bad.json")
     shipped = TunedFamily.load(PARAMS_PATH)  # what the benchmark reads: tuned on the tuning seed only
     assert shipped.provenance["seed"] == B.TUNING_SEED
+    assert shipped.provenance["tuning"]["global_capped"]["overshoot_cap_n"] > 0

@@ -39,7 +39,8 @@ def _clairvoyant(success, dropped) -> ClairvoyantResult:
     n = len(success)
     return ClairvoyantResult(success=np.array(success), dropped=np.array(dropped), handed_over=np.zeros(n, bool),
                              overshoot_n=np.zeros(n), release_latch=np.full(n, -1), source=np.zeros(n, np.int8),
-                             max_hold_dropped=np.array(dropped), searched=np.zeros(n, bool))
+                             max_hold_dropped=np.array(dropped), searched=np.zeros(n, bool),
+                             release_window=np.zeros(n, np.int64))
 
 
 # behaviours: taking, taking, dropping, bumping, hesitating, dropping
@@ -56,6 +57,7 @@ def _case():
         clairvoyant=_clairvoyant(success=[True, True, True, True, True, False],
                                  dropped=[False, False, False, False, False, True]),
         family=_batch(dropped=[False, False, True, True, False, True], handed_over=[False] * 6),
+        family_capped=_batch(dropped=[True] * 6, handed_over=[False] * 6),
         family_class=_batch(dropped=[False, False, False, False, False, True], handed_over=[True, True] + [False] * 4),
         behaviour=BEHAVIOUR, wall_time_s=0.0)
     return result, oracle
@@ -81,6 +83,7 @@ def test_bound_rows_by_hand():
     assert rows["dropping"]["unavoidable"]["rate"] == 0.5 and rows["dropping"]["clairvoyant_fail"]["rate"] == 0.5
     assert rows["taking"]["family_fail"]["rate"] == 1.0  # kept but never handed over
     assert rows["taking"]["family_class_fail"]["rate"] == 0.0 and rows["bumping"]["family_fail"]["rate"] == 1.0
+    assert rows["all"]["family_capped_drop"]["rate"] == 1.0
     lo, hi = rows["all"]["unavoidable"]["ci"]
     assert lo < 1 / 6 < hi
     assert "| dropping | 2 | 50.0 [" in bounds_table(list(rows.values()))
@@ -95,6 +98,7 @@ def test_gap_rows_by_hand():
     assert r["gap_clairvoyant"][0] == pytest.approx((3 - 1) / 6)  # X fails 1, 2, 5; the bound fails 5
     assert r["gap_family"][0] == pytest.approx((3 - 5) / 6)  # the global family fails 0, 1, 2, 3, 5
     assert r["gap_family_class"][0] == pytest.approx((3 - 1) / 6)
+    assert r["gap_family_capped"][0] == pytest.approx((3 - 6) / 6)
     assert r["beats_clairvoyant"] == 0
     t = rows[("X", "taking")]
     assert t["gap_clairvoyant"] == pytest.approx((0.5, 0.0, 1.0), abs=0.51)
@@ -129,7 +133,9 @@ def test_overshoot_rows_count_the_taking_episodes_handed_over():
     result.outcomes["X"] = _batch(dropped=[False] * 6, handed_over=[True, True, False, False, False, True],
                                   force_overshoot_n=[4.0, 8.0, 0.0, 0.0, 0.0, 99.0])
     rows = {r["who"]: r for r in overshoot_rows(result, oracle)}
-    assert set(rows) == {"clairvoyant", "family, global", "family, per class", "X"}
+    assert set(rows) == {"clairvoyant", "family, global", "family, global, p95 ≤ HI", "family, per class", "X"}
     assert rows["X"]["handed_over"] == 2 and rows["X"]["taking"] == 2  # the non-taking episode 5 does not count
     assert rows["X"]["median_n"] == 6.0 and rows["X"]["p95_n"] == pytest.approx(7.8)
+    assert rows["X"]["p95_all_taking_n"] == pytest.approx(7.8)  # the two taking episodes are both handed over
+    assert rows["family, global"]["p95_all_taking_n"] == 0.0
     assert rows["family, global"]["handed_over"] == 0 and np.isnan(rows["family, global"]["median_n"])
