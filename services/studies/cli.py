@@ -1,6 +1,7 @@
 """`handover-study`: the offline studies of the stack, one command line.
 
     handover-study bench       Monte-Carlo benchmark of the gripper's release controllers
+    handover-study oracle-tune tune the sensor-only family of the benchmark's oracle bound
     handover-study reproduce   thesis Figures 20-23 and their comparison table
     handover-study failsafe    the fail-safe law's thresholds: fst | fbt | conditions
     handover-study figures     the docs pages' figures: motion | planner | gripper | all
@@ -30,13 +31,14 @@ PROG = "handover-study"
 def _commands() -> list[tuple[str, str, Callable[[argparse.ArgumentParser], None], Callable]]:
     """(name, description, add_arguments, run) of every study command."""
     from services.studies import crosscheck_command, figures_command
-    from services.studies.gripper import analysis_command, bench_command, reproduce_command
+    from services.studies.gripper import analysis_command, bench_command, oracle_command, reproduce_command
     from services.studies.planner import experiment_command
     from services.studies.tracker import commands as tracker
 
     modules: list[tuple[str, ModuleType]] = [
-        ("bench", bench_command), ("reproduce", reproduce_command), ("failsafe", analysis_command),
-        ("figures", figures_command), ("experiment", experiment_command), ("crosscheck", crosscheck_command),
+        ("bench", bench_command), ("oracle-tune", oracle_command), ("reproduce", reproduce_command),
+        ("failsafe", analysis_command), ("figures", figures_command), ("experiment", experiment_command),
+        ("crosscheck", crosscheck_command),
     ]
     table = [(name, module.DESCRIPTION, module.add_arguments, module.run) for name, module in modules]
     table.append(("record", tracker.RECORD_DESCRIPTION, tracker.add_record_arguments, tracker.run_record))

@@ -36,9 +36,9 @@ from enum import IntEnum
 
 import numpy as np
 
+from handover_model.grip import GripController, Mode, SensorSample
 from robot_sim.contact.config import ContactSimError, SimConfig
 from robot_sim.contact.episode import rest_sample
-from handover_model.grip import GripController, Mode, SensorSample
 from robot_sim.contact.outcome import BatchOutcome, OutcomeAccumulator
 from robot_sim.contact.plant import ContactPlant
 from robot_sim.contact.receiver import ReceiverParams

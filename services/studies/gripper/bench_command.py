@@ -19,6 +19,7 @@ from pathlib import Path
 
 from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
+from services.studies.gripper import oracle_command
 from services.studies.gripper.bench_report import (
     attribution_table,
     markdown_table,
@@ -96,6 +97,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-plots", action="store_true", help="skip the PNG plots")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--log-level", default="warning", choices=["debug", "info", "warning", "error"])
+    oracle_command.add_bench_arguments(p)
 
 
 def _paired_drop_tests(result) -> list[dict]:
@@ -185,4 +187,9 @@ def run(args: argparse.Namespace) -> int:
         for d in {args.out, args.img_dir} - {None}:
             for path in write_plots(result, rows, d) + [write_subpopulation_plot(sub_rows, d)]:
                 print(f"wrote {path}")
+    try:
+        oracle_command.report_bench(args, result)
+    except GripperError as exc:
+        print(f"handover-study bench: error: {exc}", file=sys.stderr)
+        return 2
     return 0

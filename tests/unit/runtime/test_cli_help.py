@@ -18,6 +18,7 @@ COMMANDS = [
     ("services.gripper.cli", ["--help"]),
     ("services.studies.cli", ["--help"]),
     ("services.studies.cli", ["bench", "--help"]),
+    ("services.studies.cli", ["oracle-tune", "--help"]),
     ("services.studies.cli", ["reproduce", "--help"]),
     ("services.studies.cli", ["failsafe", "--help"]),
     ("services.studies.cli", ["figures", "--help"]),
