@@ -112,14 +112,26 @@ def run_main(run: Callable[[argparse.Namespace], int], args: argparse.Namespace,
         return EXIT_OK
     except ServiceError as exc:
         write_line(f"{name}: error: {exc}", flush_s=1.0)
-        return EXIT_BAD_INPUT if _is_input_error(exc) else EXIT_FAILURE
+        return EXIT_BAD_INPUT if is_input_error(exc) else EXIT_FAILURE
     except Exception as exc:  # a bug: say so in one line, details in the debug log
         log.debug("unhandled exception", exc_info=True)
         write_line(f"{name}: internal error: {type(exc).__name__}: {exc}", flush_s=1.0)
         return EXIT_FAILURE
 
 
-def _is_input_error(exc: ServiceError) -> bool:
+def positive_int(text: str) -> int:
+    """An argparse type: a whole number >= 1 (a one-line usage error otherwise)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{value} must be >= 1")
+    return value
+
+
+def is_input_error(exc: ServiceError) -> bool:
+    """Whether `exc` says the input was bad (exit 2) rather than the run failing (exit 1)."""
     from services.runtime.errors import ProfileError
 
     return isinstance(exc, ProfileError) or getattr(exc, "bad_input", False)

@@ -22,7 +22,7 @@ import sys
 from collections.abc import Callable
 from types import ModuleType
 
-from services.runtime.cli import HelpFormatter, one_line_parser
+from services.runtime.cli import HelpFormatter, is_input_error, one_line_parser
 from services.runtime.errors import ServiceError
 
 PROG = "handover-study"
@@ -61,12 +61,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _is_input_error(exc: ServiceError) -> bool:
-    from services.runtime.errors import ProfileError
-
-    return isinstance(exc, ProfileError) or getattr(exc, "bad_input", False)
-
-
 def main(argv: list[str] | None = None) -> int:
     """Entry point of `handover-study`; returns the exit code."""
     args = build_parser().parse_args(argv)
@@ -78,7 +72,7 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except ServiceError as exc:
         print(f"{PROG} {args.command}: error: {exc}", file=sys.stderr)
-        return 2 if _is_input_error(exc) else 1
+        return 2 if is_input_error(exc) else 1
     except OSError as exc:
         print(f"{PROG} {args.command}: error: {exc}", file=sys.stderr)
         return 1

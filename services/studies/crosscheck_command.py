@@ -50,11 +50,17 @@ def _figures(results, img_dir: Path) -> list[Path]:
 
 def run(args: argparse.Namespace) -> int:
     """Run the cross-check and write its outputs; exit 1 if a case did not come out as stated."""
+    from robot_sim.contact.config import ContactSimError
     from robot_sim.contact.crosscheck.catalogue import all_cases, quick_cases
     from robot_sim.contact.crosscheck.compare import compare_all, problems
-    from robot_sim.contact.config import ContactSimError
-    from robot_sim.contact.crosscheck.report import (check_region, doc_region, rewrite_region, rows_table,
-                                                     summary_table, write_csv)
+    from robot_sim.contact.crosscheck.report import (
+        check_region,
+        doc_region,
+        rewrite_region,
+        rows_table,
+        summary_table,
+        write_csv,
+    )
 
     if args.doc is not None:
         try:

@@ -19,6 +19,7 @@ from pathlib import Path
 
 from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
+from services.runtime.cli import positive_int
 from services.studies.gripper import oracle_command
 from services.studies.gripper.bench_report import (
     attribution_table,
@@ -44,13 +45,6 @@ from services.studies.gripper.episodes import GRIPPER_CLASSES
 from services.studies.gripper.populations import DEFAULT_POPULATION, POPULATIONS, population
 
 
-def _positive_int(text: str) -> int:
-    v = int(text)
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive integer")
-    return v
-
-
 def _override(text: str) -> tuple[str, str, float | bool]:
     """`CONTROLLER:PARAM=VALUE` → (controller, param, value); VALUE a number, true or false."""
     try:
@@ -74,7 +68,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     """The benchmark's flags."""
     p.add_argument("--controllers", nargs="+", default=list(DEFAULT_CONTROLLERS), metavar="NAME",
                    help=f"controllers to compare (known: {', '.join(CONTROLLER_NAMES)})")
-    p.add_argument("-n", "--episodes", type=_positive_int, default=200, help="episodes per controller")
+    p.add_argument("-n", "--episodes", type=positive_int, default=200, help="episodes per controller")
     p.add_argument("--seed", type=int, default=1,
                    help=f"episode seed (the SG controller was tuned on seed {TUNING_SEED}: evaluate on others)")
     p.add_argument("--population", choices=list(POPULATIONS), default=DEFAULT_POPULATION,
@@ -83,8 +77,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "benchmark's: reproduces its figures); see services/studies/gripper/populations.py")
     p.add_argument("--grippers", nargs="+", choices=list(GRIPPER_CLASSES), default=None, metavar="CLASS",
                    help=f"gripper classes instead of the population's, equal shares ({', '.join(GRIPPER_CLASSES)})")
-    p.add_argument("--workers", type=_positive_int, default=None, help="processes (default: all cores)")
-    p.add_argument("--chunk-size", type=_positive_int, default=250, help="episodes per vectorised chunk")
+    p.add_argument("--workers", type=positive_int, default=None, help="processes (default: all cores)")
+    p.add_argument("--chunk-size", type=positive_int, default=250, help="episodes per vectorised chunk")
     p.add_argument("--out", type=Path, default=Path("out/gripper_bench"),
                    help="folder for table.md, results.csv, plots")
     p.add_argument("--img-dir", type=Path, default=None, help="also write the plots here (e.g. docs/img)")

@@ -20,6 +20,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from services.gripper.errors import GripperError
+from services.runtime.cli import positive_int
 from services.studies.gripper.benchmark import TUNING_SEED, BenchResult
 from services.studies.gripper.episodes import BEHAVIOUR_NAMES, EpisodeDistribution
 from services.studies.gripper.oracle_family import PARAMS_PATH, TunedFamily, bench_chunks, tune
@@ -29,20 +30,14 @@ DESCRIPTION = ("Tune the sensor-only family of the oracle bound (scipy different
                "behaviour class) on the tuning seed; the benchmark reads the result.")
 
 
-def _positive_int(text: str) -> int:
-    v = int(text)
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} must be a positive integer")
-    return v
-
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Flags of `handover-study oracle-tune`."""
-    p.add_argument("-n", "--episodes", type=_positive_int, default=1000, help="tuning episodes")
+    p.add_argument("-n", "--episodes", type=positive_int, default=1000, help="tuning episodes")
     p.add_argument("--seed", type=int, default=TUNING_SEED, help="episode seed of the tuning set")
-    p.add_argument("--chunk-size", type=_positive_int, default=250, help="episodes per vectorised chunk")
-    p.add_argument("--popsize", type=_positive_int, default=4, help="differential evolution: members per parameter")
-    p.add_argument("--maxiter", type=_positive_int, default=12, help="differential evolution: generations")
+    p.add_argument("--chunk-size", type=positive_int, default=250, help="episodes per vectorised chunk")
+    p.add_argument("--popsize", type=positive_int, default=4, help="differential evolution: members per parameter")
+    p.add_argument("--maxiter", type=positive_int, default=12, help="differential evolution: generations")
     p.add_argument("--out", type=Path, default=PARAMS_PATH, help="where to write the tuned parameters (JSON)")
     p.add_argument("--log-level", default="warning", choices=["debug", "info", "warning", "error"])
     p.add_argument("--population", default="narrow", choices=sorted(POPULATIONS),

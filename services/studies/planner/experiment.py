@@ -16,11 +16,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from services.planner.transfer_plan import TransferPlan
 from services.planner.djt.arms import Dyad
 from services.planner.djt.cost import djt_cost
 from services.planner.djt.settings import DJTSettings
 from services.planner.frames import TaskPlaneFrame
+from services.planner.transfer_plan import TransferPlan
 
 OFFSET_M = 0.15
 

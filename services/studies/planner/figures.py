@@ -21,10 +21,10 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from services.planner.anthropometrics import FIGURE3_ACTOR, ROBOT_AS_HUMAN  # noqa: E402
-from services.planner.transfer_plan import DyadGeometry, TransferPlan, plan_transfer  # noqa: E402
 from services.planner.djt.settings import DJTSettings  # noqa: E402
 from services.planner.plot import draw_plan  # noqa: E402
 from services.planner.scene_args import EMPTY_CUP_KG  # noqa: E402
+from services.planner.transfer_plan import DyadGeometry, TransferPlan, plan_transfer  # noqa: E402
 from services.studies.planner.experiment import four_positions  # noqa: E402
 
 

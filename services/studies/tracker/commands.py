@@ -12,21 +12,13 @@ import argparse
 import sys
 from pathlib import Path
 
+from services.runtime.cli import positive_int
 from services.tracker.config_args import add_config_flags, config_from_args, profile_config
 
 RECORD_DESCRIPTION = "Simulate one seeded tracker episode (Kinect, joints, truth) and write a replay file."
 EVALUATE_DESCRIPTION = ("Hand-position error of the tracker against the simulator's truth, per Mincelli "
                         "correction and handover phase, over seeded episodes.")
 
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} must be >= 1")
-    return value
 
 
 def add_record_arguments(p: argparse.ArgumentParser) -> None:
@@ -60,7 +52,7 @@ def run_record(args: argparse.Namespace) -> int:
 
 def add_evaluate_arguments(p: argparse.ArgumentParser) -> None:
     """Flags of `evaluate`: the episodes, the outputs, the profile and the tracker's own flags."""
-    p.add_argument("--episodes", type=_positive_int, default=20, help="number of seeded episodes")
+    p.add_argument("--episodes", type=positive_int, default=20, help="number of seeded episodes")
     p.add_argument("--seed", type=int, default=0, help="first seed")
     p.add_argument("--json", type=Path, default=Path("out/tracker/evaluation.json"), help="results file")
     p.add_argument("--figure", type=Path, default=None,
