@@ -16,8 +16,10 @@ DEFAULT_PREFIX = f"handover/v{SCHEMA_VERSION}"
 ALIVE_SUFFIX = "alive"
 
 #: ``safety`` keys are published with congestion control BLOCK and a high priority;
-#: ``state`` keys may be dropped under congestion.
-Delivery = Literal["safety", "state"]
+#: ``state`` keys may be dropped under congestion; ``clock`` keys carry the simulation clock
+#: (on which every key is sent at one priority and never dropped, so that on every link a clock
+#: message follows whatever its sender put on the bus before it: `services.runtime.clock`).
+Delivery = Literal["safety", "state", "clock"]
 
 
 @dataclass(frozen=True)
@@ -78,6 +80,9 @@ HEARTBEAT = _T("runtime/heartbeat", m.Heartbeat, "state", 10, "every service", "
                per_sender=True)
 SIM_TRUTH = _T("sim/truth", m.SimTruth, "state", 100, "bridge", "simulator ground truth (10 Hz at rest)")
 KINECT_TRUTH = _T("sim/kinect_truth", m.KinectTruth, "state", 30, "tracker or kinect", "body truth (10 Hz still)")
+CLOCK = _T("sim/clock", m.ClockGrant, "clock", 0, "bridge", "simulation clock step (sim clock only)")
+CLOCK_READY = _T("sim/clock_ready", m.ClockReady, "clock", 0, "every clock participant",
+                 "done with a step, next step wanted (sim clock only)", per_sender=True)
 del _T
 
 TOPICS: tuple[Topic, ...] = (
@@ -101,6 +106,8 @@ TOPICS: tuple[Topic, ...] = (
     HEARTBEAT,
     SIM_TRUTH,
     KINECT_TRUTH,
+    CLOCK,
+    CLOCK_READY,
 )
 TOPICS_BY_SUFFIX: dict[str, Topic] = {t.suffix: t for t in TOPICS}
 assert len(TOPICS_BY_SUFFIX) == len(TOPICS), "duplicate key in TOPICS"

@@ -69,6 +69,10 @@ def sample(topic: Topic) -> m.Message:
                  tool_position_m=(0.6, -0.26, 0.12), tool_speed_m_s=0.0)
     if t is m.KinectTruth:
         return t(**H, hand_position_m=(0.9, -0.26, 0.1), torso_position_m=(1.1, -0.45, 0.3))
+    if t is m.ClockGrant:
+        return t(**H, step=42, time_ns=1_234_000_000, due=["gripper", "motion"])
+    if t is m.ClockReady:
+        return t(**H, done_ns=1_234_000_000, next_ns=1_244_000_000, events=True, leaving=False, pid=4242)
     raise KeyError(f"no sample for {t.__name__}: add one to tests/samples.py")
 
 

@@ -47,7 +47,7 @@ from bus_schema.messages.supervisor import (
     SupervisorPhase,
     SupervisorState,
 )
-from bus_schema.messages.simulation import Holder, KinectTruth, SimTruth
+from bus_schema.messages.simulation import ClockGrant, ClockReady, Holder, KinectTruth, SimTruth
 from bus_schema.types import MAX_JOINTS, AngleRad, DistanceM, ForceN, PositionM
 
 __all__ = [
@@ -57,6 +57,8 @@ __all__ = [
     "ConstraintName",
     "DepthImage",
     "DistanceM",
+    "ClockGrant",
+    "ClockReady",
     "EpisodeOutcome",
     "EpisodeSummary",
     "ForceN",

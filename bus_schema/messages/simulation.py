@@ -7,7 +7,7 @@ from typing import Annotated, Literal
 from msgspec import Meta
 
 from bus_schema.messages.header import Message
-from bus_schema.types import ForceN, NonNegForceN, SpeedMS, Vec3M, Vec3VelocityMS
+from bus_schema.types import U63, ForceN, NonNegForceN, ServiceName, SpeedMS, Vec3M, Vec3VelocityMS
 
 Holder = Literal["gripper", "receiver", "both", "table", "none"]
 
@@ -53,3 +53,40 @@ class KinectTruth(Message, frozen=True, kw_only=True):
 
     hand_position_m: Vec3M = (0.0, 0.0, 0.0)
     torso_position_m: Vec3M = (0.0, 0.0, 0.0)
+
+
+class ClockGrant(Message, frozen=True, kw_only=True):
+    """The simulation clock's next step (the bridge's simulation owns time: `sim/clock`).
+
+    Every process of a stack on the simulation clock sets its time to `time_ns`; the named
+    `due` participants run their work for that time and answer with a `ClockReady`.
+
+    Attributes:
+        step: number of the step (0 for the first).
+        time_ns: simulated time since the run's start, ns.
+        due: the participants that must act at this step (an event step names all of them).
+    """
+
+    step: U63
+    time_ns: U63
+    due: Annotated[list[ServiceName], Meta(max_length=64)] = []
+
+
+class ClockReady(Message, frozen=True, kw_only=True):
+    """A participant of the simulation clock is done up to `done_ns` and next needs the
+    clock at `next_ns` (`sim/clock_ready/<service>`).
+
+    Attributes:
+        done_ns: the simulated time whose work is finished, ns.
+        next_ns: the simulated time the participant must next act at, ns.
+        events: it sent an event (a goal, a stop, a release) in this step: every participant
+            gets a step 1 µs later to act on it, as the wall clock's event wake-ups do.
+        leaving: it leaves the clock (shutting down): never wait for it again.
+        pid: its process id (the clock's owner asks the kernel whether a quiet one is stopped).
+    """
+
+    done_ns: U63
+    next_ns: U63
+    events: bool = False
+    leaving: bool = False
+    pid: Annotated[int, Meta(ge=0, le=(1 << 31) - 1)] = 0

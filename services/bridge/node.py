@@ -18,7 +18,6 @@ depth frames do not delay this loop through the GIL.
 from __future__ import annotations
 
 import logging
-import time
 from typing import Any
 
 import numpy as np
@@ -27,7 +26,9 @@ from bus_schema import topics
 from services.bridge.arm_loop import ArmLoop, Inbox
 from services.bridge.backend import Backend, make_backend
 from services.bridge.config import BridgeConfig
+from services.bridge.errors import BridgeConfigError
 from services.runtime import Profile, ServiceNode, kv
+from services.runtime.clock import clock_source
 
 log = logging.getLogger(__name__)
 
@@ -47,7 +48,12 @@ def _backend_for(profile: Profile, config: BridgeConfig) -> Backend:
 def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None = None) -> int:
     """Run the bridge until SIGINT/SIGTERM. Returns the exit code."""
     backend = backend or _backend_for(profile, config)
-    with ServiceNode(SERVICE_NAME, profile) as node:
+    owns_clock = clock_source(profile.clock) == "sim"
+    if owns_clock and backend.name != "sim":
+        raise BridgeConfigError(f"the simulation clock is owned by the bridge's simulation, but its backend is "
+                          f"{backend.name!r}: run this profile on the wall clock (handover-up --clock wall)")
+    with ServiceNode(SERVICE_NAME, profile, clock_role="owner" if owns_clock else "participant") as node:
+        clock = node.clock
         state_pub = node.publisher(topics.JOINT_STATE)
         # Read at the servo's tick; only a stop wakes the loop early (`ServiceNode.rate_loop`).
         commands = node.subscribe(topics.JOINT_COMMAND, wake=False)
@@ -68,7 +74,7 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
         log.info("bridge running", extra=kv(backend=backend.name, rate_hz=config.rate_hz,
                                             command_timeout_s=config.command_timeout_s,
                                             stop_wakes_loop=config.stop_wakes_loop))
-        arm = ArmLoop(backend, config, start_s=time.monotonic())
+        arm = ArmLoop(backend, config, start_s=clock.now_s())
 
         def stop_pending() -> bool:
             latest = stops.latest()
@@ -77,8 +83,8 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
         loop = node.rate_loop(config.rate_hz, urgent=stop_pending if config.stop_wakes_loop else None)
         try:
             for _tick in loop:
-                state_pub.put(**arm.tick(time.monotonic(), inbox))
-                arm.publish_extras(publish_extra, time.monotonic())
+                state_pub.put(**arm.tick(clock.now_s(), inbox))
+                arm.publish_extras(publish_extra, clock.now_s())
         finally:
             backend.close()
             log.info("bridge stopped", extra=kv(accepted=arm.gate.accepted, rejected=arm.gate.rejected,

@@ -36,6 +36,7 @@ from bus_schema.codec import DecodeError
 from services.gripper.config import GripperConfig
 from services.gripper.core import GripDecision, GripperCore, MotionReading, WrenchReading
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
+from services.runtime.clock import PARTICIPANT_PHASE_S, first_grid_time_s
 from services.runtime.repeat import HOLD_REPEAT_S, RepeatGate
 
 log = logging.getLogger(__name__)
@@ -161,6 +162,15 @@ def _offer_queued(gripper_io: _GripperIO, wrench_sub, motion_sub) -> None:
         gripper_io.core.note_rejected("object_motion", motion_sub.stats.rejected)
 
 
+def _next_sensor_step_s(now_s: float) -> float:
+    """Simulation clock: the next step after `now_s` (s) at which a wrench sample sent at the
+    bridge's tick has arrived (the sensor's grid, shifted by a participant's phase). The
+    gripper steps only there (and at event steps): as on the wall clock, where a wrench sample
+    wakes it, and with times on a fixed grid, so that a float sum a hair short of a period
+    never shifts a step by a nanosecond."""
+    return first_grid_time_s(now_s + 1e-6, 1.0 / topics.WRIST_WRENCH.nominal_rate_hz, PARTICIPANT_PHASE_S)
+
+
 def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | None = None) -> int:
     """Run the gripper service until SIGINT/SIGTERM. Returns the exit code."""
     core = core or GripperCore(config)
@@ -169,7 +179,8 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
         supervisor_sub = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16)
         session = node.session
         subscribers, queued = [], None
-        if config.step_in_callback:
+        clock = node.clock
+        if config.step_in_callback and not clock.is_sim:  # the simulation clock steps in the main thread
             subscribers = [
                 session.declare_subscriber(topics.WRIST_WRENCH.key(profile.prefix), gripper_io.on_wrench),
                 session.declare_subscriber(topics.OBJECT_MOTION.key(profile.prefix), gripper_io.on_motion),
@@ -178,13 +189,19 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
             # A wrench sample wakes a step; the object motion is read at that step.
             queued = (node.subscribe(topics.WRIST_WRENCH), node.subscribe(topics.OBJECT_MOTION, wake=False))
         episode_id: int | None = None
+        # Simulation clock: the supervisor's first state is at its first step, 1 ms in; until
+        # then the core's default request (``transfer``, for a gripper run alone) would start the
+        # controller on an empty gripper. Every run waits for that word the same way.
+        heard_supervisor = not (clock.is_sim and profile.service("supervisor") is not None)
         log.info("gripper running", extra=kv(controller=config.controller, rate_hz=config.rate_hz,
                                              wrench_timeout_s=config.wrench_timeout_s,
                                              step_in_callback=config.step_in_callback))
         try:
             while not node.should_stop:
                 with gripper_io.lock:
-                    wait_s = core.next_due_s(time.monotonic())
+                    now_s = clock.now_s()
+                    # Simulation clock: the sensor's grid, a phase after each wrench sample.
+                    wait_s = _next_sensor_step_s(now_s) - now_s if clock.is_sim else core.next_due_s(now_s)
                 node.wait(min(wait_s, _MAX_WAIT_S))
                 if queued is not None:
                     _offer_queued(gripper_io, *queued)
@@ -198,14 +215,17 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
                             log.info("grip request", extra=kv(request=rx.msg.grip_request, phase=rx.msg.phase))
                             core.set_request(rx.msg.grip_request)
                     episode_id = rx.msg.episode_id
+                    heard_supervisor = True
                 if queued is not None:  # at rest a wrench sample changes nothing: no wake for it
                     queued[0].wakes_loop = core.releasing
                 if node.should_stop:
                     break
+                if not heard_supervisor:
+                    continue
                 with gripper_io.lock:
-                    now_s = time.monotonic()
+                    now_s = clock.now_s()
                     if core.due(now_s):
-                        rx_s = core.wrench_rx_s if core.has_new_wrench else None
+                        rx_s = core.wrench_rx_s if core.has_new_wrench and not clock.is_sim else None
                         gripper_io.publish(core.tick(now_s), now_s, rx_s)
         finally:
             for sub in subscribers:

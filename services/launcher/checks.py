@@ -34,3 +34,28 @@ def check_niced_services_are_report_only(profile: Profile) -> None:
                 f"{path}: services.{spec.name}.nice = {spec.nice}, but the supervisor watches {spec.name} as "
                 f"critical (a silent {spec.name} is a protective stop): keep nice = 0, or set "
                 f"services.supervisor.config.watch.{spec.name} = \"report\"")
+
+
+def clock_environment(profile: Profile, clock: str | None, job: str, services: list[str]) -> dict[str, str]:
+    """The environment that puts every service of the run on its clock (`services.runtime.clock`):
+    ``HANDOVER_CLOCK`` and, on the simulation clock, ``HANDOVER_CLOCK_PARTICIPANTS`` (the
+    services the run starts, which the clock waits for). `clock`: ``--clock`` (None: the
+    profile's).
+
+    Raises:
+        ProfileError: the simulation clock on a profile whose bridge does not simulate, or
+            with the demo job (its joint commands are paced by the launcher's wall clock).
+    """
+    source = clock or profile.clock
+    if source not in ("wall", "sim"):
+        raise ProfileError(f"unknown clock {source!r}: use wall or sim")
+    if source == "wall":
+        return {"HANDOVER_CLOCK": "wall"}
+    bridge = profile.service("bridge")
+    if bridge is None or not bridge.enabled or bridge.config.get("backend", "sim") != "sim":
+        raise ProfileError(f"{profile.path}: the simulation clock is owned by the bridge's simulation, and this "
+                           "profile has no simulated bridge: run it with --clock wall")
+    if job == "demo":
+        raise ProfileError("the demo job is paced by the wall clock: run it with --clock wall")
+    participants = sorted(set(services) - {"bridge", "recorder"})
+    return {"HANDOVER_CLOCK": "sim", "HANDOVER_CLOCK_PARTICIPANTS": ",".join(participants)}

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import os
 import tempfile
 import time
 from pathlib import Path
 
-from services.launcher.checks import check_niced_services_are_report_only
-from services.launcher.core import JOBS, LaunchOptions, check_one_simulated_kinect
+from services.launcher.checks import check_niced_services_are_report_only, clock_environment
+from services.launcher.core import JOBS, LaunchOptions, check_one_simulated_kinect, job_services
 from services.launcher.errors import LauncherUsageError
 from services.launcher.node import Launcher
 from services.launcher.processes import DEFAULT_OUTPUT_QUEUE_LINES, stdout_outlet
@@ -86,9 +87,12 @@ def _run(args: argparse.Namespace) -> int:
     if isinstance(queue_lines, bool) or not isinstance(queue_lines, int) or not 1 <= queue_lines <= 1_000_000:
         raise ProfileError(f"{profile.path}: launcher.output_queue_lines {queue_lines!r} must be an "
                            "integer within 1–1000000")
+    started = [s.name for s in job_services(profile.services, options.job)]
+    clock_env = clock_environment(profile, args.clock, options.job, started)
     _check_recording_dir(options.recording_dir)  # last: it makes the folder (bad input changes nothing)
     stdout_outlet(queue_lines)  # before the first line, so the bound holds from the start
     _route_own_logs(options.verbose)
+    os.environ.update(clock_env)  # the services inherit it, and the launcher's own bus node follows it
     return Launcher(profile, options).run()
 
 
@@ -113,6 +117,10 @@ def main(argv: list[str] | None = None) -> int:
     scene.add_argument("--episodes", type=int, default=None,
                        help="handover episodes to run (default: the profile's, 1; 0: until Ctrl-C)")
     scene.add_argument("--seed", type=int, default=None, help="seed of the simulation's noise")
+    scene.add_argument("--clock", choices=["wall", "sim"], default=None,
+                       help="sim: the simulation owns time, the stack runs as fast as its slowest "
+                            "service allows and a seed repeats the run step for step; wall: real time "
+                            "(default: the profile's [clock] source, wall)")
     parser.add_argument("--port", default=None,
                         help="bus port on 127.0.0.1, or 'auto' for a free one (overrides --endpoint)")
     parser.add_argument("--run-id", default=None, help="name of this run (default: the start time)")

@@ -77,7 +77,7 @@ def demo_job(abort_reason: Callable[[], str | None], say: Callable[[str], None])
 def run_on_bus(bus_profile: Profile, stop_requested: threading.Event, job: Callable[[ServiceNode], ResultT]) -> ResultT:
     """Run `job` on a bus node of the launcher's own (``launcher``, on `bus_profile`), which
     stops once `stop_requested` is set."""
-    with ServiceNode("launcher", bus_profile, install_signal_handlers=False) as node:
+    with ServiceNode("launcher", bus_profile, install_signal_handlers=False, clock_role="observer") as node:
         def stop_when_asked() -> None:
             stop_requested.wait()
             node.request_stop()

@@ -16,7 +16,6 @@ At rest (`MotionController.at_rest`) the loop rests until the hold command's cop
 from __future__ import annotations
 
 import logging
-import time
 
 from bus_schema import topics
 from services.motion.config import MotionConfig
@@ -54,7 +53,7 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
         loop = node.rate_loop(config.rate_hz, urgent=event_pending)
         rest_ticks = 0
         for _tick in loop:
-            now = time.monotonic()
+            now = node.clock.now_s()
             seen[:] = [stops.stats.accepted, goals.stats.accepted]
             states.drain()
             measured = arm_state.take(states.latest())

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import time
 
 from bus_schema import topics as T
 from services.planner.config import load_config
@@ -46,9 +45,9 @@ def run(args: argparse.Namespace) -> int:
                 human.msg if human else None,
                 human.rx_monotonic if human else None,
                 obj.msg.mass_kg if obj else 0.0,
-                time.monotonic(),
+                node.clock.now_s(),
             )
-            now_s = time.monotonic()
+            now_s = node.clock.now_s()
             if fields is not None:
                 latest = fields
             if latest is not None and (fields is not None or now_s - last_put_s >= REPUBLISH_PERIOD_S):

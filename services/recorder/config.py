@@ -65,5 +65,7 @@ def parse_config(table: dict[str, Any]) -> RecorderConfig:
 
 def recorded_topics(depth_every: int) -> tuple[Topic, ...]:
     """The keys the recorder subscribes to: every key of the topic table, depth only when
-    `depth_every` ≥ 1."""
-    return tuple(t for t in TOPICS if t is not topics.DEPTH or depth_every > 0)
+    `depth_every` ≥ 1, never the simulation clock's steps (each message's time is its stamp:
+    the recording's timeline is the simulated time already)."""
+    return tuple(t for t in TOPICS if (t is not topics.DEPTH or depth_every > 0)
+                 and t not in (topics.CLOCK, topics.CLOCK_READY))

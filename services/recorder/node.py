@@ -104,7 +104,7 @@ def run_recorder(profile: Profile, output: Path, config: RecorderConfig | None =
 
     config = config or RecorderConfig()
     topics = recorded_topics(config.depth_every)
-    with ServiceNode(SERVICE_NAME, profile) as node:
+    with ServiceNode(SERVICE_NAME, profile, clock_role="observer") as node:
         subscribers = {t: node.session.declare_subscriber(t.key(profile.prefix), zenoh.handlers.RingChannel(
             DEPTH_QUEUE_CAPACITY if t is DEPTH else QUEUE_CAPACITY)) for t in topics}
         node.ready()  # alive = listening: nothing may be published before the recorder hears it

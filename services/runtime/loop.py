@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable, Generator, Iterator
 from dataclasses import dataclass
 
+from services.runtime.clock import first_grid_time_s
 from services.runtime.logs import RateLimitedLog
 
 log = logging.getLogger(__name__)
@@ -74,6 +75,11 @@ class RateLoop:
         urgent_per_period: most urgent ticks between two grid ticks (default 1); None: every
             early wake that `urgent()` accepts runs one (a loop that must act on each message,
             as the supervisor's release interrupt does).
+        align_phase_s: None (the wall clock): the first tick runs at once. A phase (s): the
+            grid is ``align_phase_s + k · period`` from time 0 and the first tick waits for
+            its first point (the simulation clock, where every run must tick at the same times).
+        tolerance_s: a deadline counts as reached this close before it, s (the simulation
+            clock's whole-ns times against the grid's float sums).
 
     Attributes:
         period_s: the grid's period, s; a tick may change it (the supervisor ticks slower
@@ -85,7 +91,8 @@ class RateLoop:
     def __init__(self, rate_hz: float, stop_event: threading.Event, name: str = "loop", *,
                  clock: Callable[[], float] = time.monotonic, wait: WaitFn | None = None,
                  urgent: Callable[[], bool] | None = None, wake_source: WaitFn | None = None,
-                 urgent_per_period: int | None = 1) -> None:
+                 urgent_per_period: int | None = 1, align_phase_s: float | None = None,
+                 tolerance_s: float = 0.0) -> None:
         if not rate_hz > 0:
             raise ValueError(f"loop rate must be > 0 Hz, got {rate_hz}")
         if urgent is not None and wake_source is None:
@@ -101,6 +108,8 @@ class RateLoop:
         self._urgent_per_period = urgent_per_period
         self._rest_until_s: float | None = None
         self._wake_source = wake_source
+        self._align_phase_s = align_phase_s
+        self._tolerance_s = tolerance_s
         self._overrun_log = RateLimitedLog(log, OVERRUN_LOG_PERIOD_S)
 
     def rest_until(self, deadline_s: float) -> None:
@@ -114,6 +123,9 @@ class RateLoop:
     def __iter__(self) -> Iterator[int]:
         stats = self.stats
         next_deadline = self._clock()
+        if self._align_phase_s is not None:
+            next_deadline = first_grid_time_s(next_deadline, self.period_s, self._align_phase_s)
+            next_deadline = yield from self._sleep_until(next_deadline)
         while not self.stop_event.is_set():
             lateness = self._clock() - next_deadline
             if lateness > stats.worst_lateness_s:
@@ -124,7 +136,7 @@ class RateLoop:
             stats.ticks += 1
             next_deadline += self.period_s
             now = self._clock()
-            if now > next_deadline:
+            if now > next_deadline + self._tolerance_s:
                 next_deadline = self._skip_missed(next_deadline, now)
                 continue
             next_deadline = yield from self._sleep_until(next_deadline)
@@ -142,7 +154,7 @@ class RateLoop:
         while not self.stop_event.is_set():
             deadline_s = grid_deadline_s if rest is None else rest
             remaining = deadline_s - self._clock()
-            if remaining <= 0.0:
+            if remaining <= self._tolerance_s:
                 break
             if extra_left == 0:
                 self._wait(remaining)
@@ -151,7 +163,7 @@ class RateLoop:
             self._wake_source(remaining)
             if self.stop_event.is_set():
                 break
-            if self._clock() >= deadline_s:
+            if self._clock() >= deadline_s - self._tolerance_s:
                 break  # the deadline came: the grid tick takes whatever arrived
             self.stats.wakeups += 1
             if self._urgent():

@@ -26,6 +26,8 @@ import zenoh
 
 from bus_schema import Topic, alive_key
 from bus_schema.topics import HEARTBEAT
+from services.runtime.clock import SimClock, WallClock, grid_phase_s
+from services.runtime.clock_owner import ClockOwner, make_clock
 from services.runtime.errors import BusError
 from services.runtime.faults import rules_for
 from services.runtime.logs import RateLimitedLog, kv
@@ -33,6 +35,7 @@ from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile
 from services.runtime.zenoh_config import zenoh_config
 from services.runtime.pubsub import Received, SubscriptionStats, TypedPublisher, TypedSubscription
+from services.runtime.stamps import SENDER_CLOCK, SenderClock
 from services.runtime.starvation import LATE_WAKE_REPORT_S, WakeSampler, late_wake_report
 
 __all__ = ["HEARTBEAT_PERIOD_S", "MULTIHOST_HEARTBEAT_PERIOD_S", "Received", "ServiceNode", "SubscriptionStats",
@@ -49,6 +52,11 @@ HEARTBEAT_PERIOD_S = 0.1
 #: Heartbeat period on a bus that spans hosts (``bus.allow_non_loopback``), s: the
 #: supervisor cannot read another host's processes, so a frozen one is only a silence.
 MULTIHOST_HEARTBEAT_PERIOD_S = 0.05
+
+
+#: Simulation clock: a loop's deadline counts as reached this close before it, s (whole-ns
+#: times against the grid's float sums).
+SIM_TOLERANCE_S = 1e-6
 
 
 def heartbeat_period_s(profile: Profile) -> float:
@@ -111,6 +119,13 @@ class ServiceNode:
     thread that wakes more than 0.1 s late logs why (`services.runtime.starvation`: no CPU, or
     no GIL; a warning from 0.2 s, at most one line per 5 s). `HANDOVER_FAULTS` rules for this
     service (`services.runtime.faults`) delay or drop its publications (fault tests only).
+
+    `clock` is the stack's clock (`services.runtime.clock`): the wall clock, or on a profile
+    run on the simulation clock the bridge's simulation's. There `clock_role` says what this
+    node is to it: ``owner`` (the bridge's simulation grants the steps), ``participant`` (the
+    default: its loops and `wait` are paced by the clock, which waits for it) or ``observer``
+    (it follows the clock's time for its stamps and readings, but its loops and waits stay on
+    the wall clock and nobody waits for it: the recorder, the launcher, tools).
     """
 
     def __init__(
@@ -121,6 +136,7 @@ class ServiceNode:
         mode: str = "client",
         connect_timeout_s: float = 10.0,
         install_signal_handlers: bool = True,
+        clock_role: str = "participant",
     ) -> None:
         self.name = name
         self.profile = profile
@@ -144,6 +160,9 @@ class ServiceNode:
         self._opened_s = time.monotonic()
         #: Period of this service's heartbeat, s (`heartbeat_period_s`).
         self.heartbeat_period_s = heartbeat_period_s(profile)
+        #: The stack's clock (`services.runtime.clock`): loops, time-outs and freshness read it.
+        self.clock_role = clock_role
+        self.clock: WallClock | SimClock | ClockOwner = make_clock(name, clock_role, profile)
 
     # ------------------------------------------------------------------ lifecycle
     def __enter__(self) -> ServiceNode:
@@ -159,7 +178,10 @@ class ServiceNode:
                 self._previous_handlers[sig] = signal.signal(sig, self._on_signal)
         self._session = open_session(self.profile, self.mode, self.connect_timeout_s, user=self.name)
         self._opened_s = time.monotonic()
-        self._heartbeat_pub = self.publisher(HEARTBEAT)
+        if not isinstance(self.clock, WallClock):
+            self.clock.attach(self)
+            SENDER_CLOCK.follow(self.clock.now_ns)
+        self._heartbeat_pub = self.publisher(HEARTBEAT, own_stamps=True)
         self.heartbeat()
         threading.Thread(target=self._beat_forever, name=f"{self.name} heartbeat", daemon=True).start()
         log.info(
@@ -171,6 +193,9 @@ class ServiceNode:
     def close(self) -> None:
         """Undeclare subscriptions, publishers and the token, then close the session."""
         self.stop_event.set()
+        self.clock.close()
+        if not isinstance(self.clock, WallClock):
+            SENDER_CLOCK.follow(time.time_ns)  # the process's stamps go back to the wall clock
         for sub in self._subscriptions:
             sub.undeclare()
         for pub in self._publishers:
@@ -210,6 +235,8 @@ class ServiceNode:
         """Ask the service's loops to end (thread-safe, signal-safe)."""
         self.stop_event.set()
         self._notify()
+        if not isinstance(self.clock, WallClock):
+            self.clock.wake()
 
     @property
     def should_stop(self) -> bool:
@@ -222,14 +249,25 @@ class ServiceNode:
         return self._session
 
     # ------------------------------------------------------------------ pub/sub
-    def publisher(self, topic: Topic) -> TypedPublisher[Any]:
-        pub: TypedPublisher[Any] = TypedPublisher(self, topic)
+    def publisher(self, topic: Topic, own_stamps: bool = False) -> TypedPublisher[Any]:
+        """A publisher of `topic`. `own_stamps`: its stamps come from a clock of its own that
+        follows the stack's (for a publisher whose sending does not follow the stack's clock,
+        as heartbeats on the simulation clock: its messages must not shift the others' stamps)."""
+        stamps = None
+        if own_stamps:
+            stamps = SenderClock()
+            if not isinstance(self.clock, WallClock):
+                stamps.follow(self.clock.now_ns)
+        pub: TypedPublisher[Any] = TypedPublisher(self, topic, stamps)
         self._publishers.append(pub)
         return pub
 
-    def subscribe(self, topic: Topic, queue_size: int = 256, wake: bool = True) -> TypedSubscription[Any]:
-        """Subscribe to `topic`; `wake=False`: its messages do not wake `wait()`."""
-        sub: TypedSubscription[Any] = TypedSubscription(self, topic, queue_size, wake)
+    def subscribe(self, topic: Topic, queue_size: int = 256, wake: bool = True,
+                  wall_time: bool = False) -> TypedSubscription[Any]:
+        """Subscribe to `topic`; `wake=False`: its messages do not wake `wait()`. `wall_time`:
+        on the simulation clock too, its messages are taken in as they arrive and timed on the
+        local monotonic clock (heartbeats: liveness is a wall-clock matter)."""
+        sub: TypedSubscription[Any] = TypedSubscription(self, topic, queue_size, wake, wall_time)
         self._subscriptions.append(sub)
         return sub
 
@@ -289,11 +327,16 @@ class ServiceNode:
     def wait(self, timeout_s: float) -> bool:
         """Block until any subscription has new data, shutdown, or `timeout_s` passes.
 
+        On the simulation clock: done with the current time; returns at the next step that
+        names this service (at most `timeout_s` of simulated time later).
+
         Returns:
-            True when new data arrived since the last call.
+            True when new data arrived since the last call (simulation clock: a step came).
         """
         if self._token is None:
             self.ready()
+        if self._paced_by_sim_clock:
+            return self._sim_clock.wait(timeout_s)
         with self._wake:
             if not self._new_data and not self.stop_event.is_set():
                 self._wake.wait(timeout_s)
@@ -314,11 +357,31 @@ class ServiceNode:
         two grid ticks (None: no limit). Declares the liveliness token first if `ready()` was
         not called."""
         self.ready()
-        loop = RateLoop(rate_hz, self.stop_event, name=f"{self.name} {rate_hz:g} Hz loop",
-                        urgent=urgent, wake_source=self.wait if urgent is not None else None,
-                        urgent_per_period=urgent_per_period)
+        name = f"{self.name} {rate_hz:g} Hz loop"
+        if not self._paced_by_sim_clock:
+            loop = RateLoop(rate_hz, self.stop_event, name=name, urgent=urgent,
+                            wake_source=self.wait if urgent is not None else None, urgent_per_period=urgent_per_period)
+        else:  # the simulation clock: a grid from time 0, every step through the clock
+            clock = self._sim_clock
+            if isinstance(clock, ClockOwner):
+                clock.wait_for_start()  # its first tick, at 0, must reach every participant
+            loop = RateLoop(rate_hz, self.stop_event, name=name, clock=clock.now_s, wait=clock.wait,
+                            urgent=urgent, wake_source=clock.wait if urgent is not None else None,
+                            urgent_per_period=urgent_per_period, align_phase_s=grid_phase_s(self.name),
+                            tolerance_s=SIM_TOLERANCE_S)
         self.loops.append(loop)
         return loop
+
+    @property
+    def _sim_clock(self) -> SimClock | ClockOwner:
+        """The simulation clock (only where `_paced_by_sim_clock`)."""
+        assert not isinstance(self.clock, WallClock)
+        return self.clock
+
+    @property
+    def _paced_by_sim_clock(self) -> bool:
+        """Loops and waits go through the simulation clock (an observer's stay on the wall clock)."""
+        return not isinstance(self.clock, WallClock) and self.clock_role != "observer"
 
     def stats(self) -> dict[str, Any]:
         """Counters of every subscription and loop, for logs and tests."""

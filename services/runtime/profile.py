@@ -100,6 +100,9 @@ class Profile:
         tls: mutual TLS on the bus (``[bus.tls]``, `services.runtime.bus_tls`), or None.
         fault_injection: ``[testing] fault_injection = true``: the services take
             `HANDOVER_FAULTS` rules (`services.runtime.faults`); fault-test profiles only.
+        clock: ``[clock] source``: ``wall`` (default) or ``sim``, the simulation clock that
+            the bridge's simulation owns (`services.runtime.clock`; ``HANDOVER_CLOCK``, which
+            ``handover-up --clock`` sets, overrides it).
     """
 
     path: Path | None
@@ -112,6 +115,7 @@ class Profile:
     logins: str = "off"
     tls: BusTls | None = None
     fault_injection: bool = False
+    clock: str = "wall"
     services: tuple[ServiceSpec, ...] = ()
     launcher: dict[str, Any] = field(default_factory=dict)
     raw: dict[str, Any] = field(default_factory=dict)
@@ -304,6 +308,9 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
     if not isinstance(testing, dict) or set(testing) - {"fault_injection"} \
             or not isinstance(testing.get("fault_injection", False), bool):
         raise ProfileError(f"{path}: [testing] may hold only fault_injection = true/false")
+    clock = doc.get("clock", {})
+    if not isinstance(clock, dict) or set(clock) - {"source"} or clock.get("source", "wall") not in ("wall", "sim"):
+        raise ProfileError(f"{path}: [clock] may hold only source = \"wall\" or \"sim\"")
     services = tuple(_as_spec(name, table, path) for name, table in services_table.items())
     return Profile(
         path=path,
@@ -316,6 +323,7 @@ def load_profile_file(profile: str | Path = DEFAULT_PROFILE) -> Profile:
         logins=logins,
         tls=tls,
         fault_injection=testing.get("fault_injection", False),
+        clock=clock.get("source", "wall"),
         services=services,
         launcher=dict(doc.get("launcher", {})),
         raw=doc,

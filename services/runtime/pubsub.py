@@ -1,7 +1,9 @@
 """Typed publish and subscribe on one Zenoh session: decode at the edge, bounded queues,
 per-publisher headers (see `services.runtime.node.ServiceNode`, which makes these).
 
-Freshness is judged by local receive time (`time.monotonic()`), never by the sender's stamp.
+Freshness is judged by local receive time (`time.monotonic()`), never by the sender's stamp;
+except on the simulation clock (`services.runtime.clock`), where a message's time is its
+sender's simulated stamp and a reader at time t takes in only what was stamped before t.
 """
 
 from __future__ import annotations
@@ -21,19 +23,24 @@ from bus_schema.messages import Message
 from bus_schema.topics import sender_of_key
 from services.runtime.faults import FaultyPut
 from services.runtime.logs import RateLimitedLog
-from services.runtime.stamps import SENDER_CLOCK
+from services.runtime.stamps import SENDER_CLOCK, SenderClock
 
 if TYPE_CHECKING:
     from services.runtime.node import ServiceNode
 
 log = logging.getLogger(__name__)
 
+#: Simulation clock: a ring channel holds at least this many samples, so that messages stamped
+#: at the reader's own step, held back until its next one, do not push out older ones.
+SIM_MIN_RING = 64
+
 M = TypeVar("M", bound=Message)
 
 
 @dataclass(frozen=True)
 class Received(Generic[M]):
-    """A decoded message and its local receive time (`time.monotonic()`, s)."""
+    """A decoded message and its local receive time (`time.monotonic()`, s; on the simulation
+    clock: the simulated time it was sent at)."""
 
     msg: M
     rx_monotonic: float
@@ -75,8 +82,11 @@ class TypedSubscription(Generic[M]):
       took the sample in, at most one of its ticks after arrival.
     """
 
-    def __init__(self, node: ServiceNode, topic: Topic, queue_size: int, wake: bool = True) -> None:
+    def __init__(self, node: ServiceNode, topic: Topic, queue_size: int, wake: bool = True,
+                 wall_time: bool = False) -> None:
         self.topic = topic
+        # The simulation clock reads every stream at its steps: no callbacks (`_release`).
+        wake = wake and not (node.clock.is_sim and node.clock_role != "observer" and not wall_time)
         self.wake = wake
         #: ``wake=True`` only: False keeps queueing samples without waking the loop (a loop
         #: at rest that will read them at its next tick).
@@ -89,21 +99,36 @@ class TypedSubscription(Generic[M]):
         self._last_seq: dict[str, int] = {}
         self._bad_log = RateLimitedLog(log, 1.0)
         self._pump_lock = threading.Lock()
+        # On the simulation clock (and not `wall_time`, as heartbeats are, nor an observer's:
+        # the launcher's, the recorder's): messages wait in `_held` until the reader's time is
+        # past their stamp (`_release`).
+        paced = node.clock.is_sim and node.clock_role != "observer"
+        self._sim_clock = node.clock if paced and not wall_time else None
+        self._held: list[Received[M]] = []
+        ring_size = queue_size if self._sim_clock is None else max(queue_size, SIM_MIN_RING)
         # A callback subscriber (Subscriber[None]) or a ring channel's (try_recv): Any covers both.
         self._subscriber: zenoh.Subscriber[Any]
         if wake:
             self._subscriber = node.session.declare_subscriber(self.key, self._on_sample)
         else:
-            self._subscriber = node.session.declare_subscriber(self.key, zenoh.handlers.RingChannel(queue_size))
+            self._subscriber = node.session.declare_subscriber(self.key, zenoh.handlers.RingChannel(ring_size))
 
     # Runs on a Zenoh thread: decode, count, enqueue, notify. Nothing else.
     def _on_sample(self, sample: zenoh.Sample) -> None:
+        if self._sim_clock is not None:
+            with self._pump_lock:
+                self._accept(sample, 0.0)
+            return
         if self._accept(sample, time.monotonic()) and self.wakes_loop:
             self._node._notify()
 
     def _pump(self) -> None:
-        """Take in what waits in the ring channel (``wake=False`` only; reader's thread)."""
+        """Take in what waits in the ring channel (``wake=False`` only; reader's thread), and
+        on the simulation clock what was stamped before now."""
         if self.wake:
+            if self._sim_clock is not None:
+                with self._pump_lock:
+                    self._release()
             return
         with self._pump_lock:
             try_recv = self._subscriber.try_recv
@@ -113,8 +138,10 @@ class TypedSubscription(Generic[M]):
                 except Exception:  # noqa: BLE001 - shutdown: the session closed under us
                     return
                 if sample is None:
-                    return
+                    break
                 self._accept(sample, time.monotonic())
+            if self._sim_clock is not None:
+                self._release()
 
     def _accept(self, sample: zenoh.Sample, rx: float) -> bool:
         """Decode, count and queue one sample; False when it was dropped."""
@@ -139,17 +166,40 @@ class TypedSubscription(Generic[M]):
             stats.rejected += 1
             self._bad_log.warning(self.key, f"dropped payload on {self.key}: {exc!r}")
             return False
+        if self._sim_clock is not None:
+            self._held.append(Received(msg, msg.stamp_ns / 1e9))
+            return True
+        self._take(Received(msg, rx))
+        return True
+
+    def _release(self) -> None:
+        """Simulation clock (pump lock held): take in the held messages stamped before now, in
+        (stamp, sender, seq) order, whatever order they arrived in."""
+        held = self._held
+        if not held:
+            return
+        assert self._sim_clock is not None
+        now_ns = self._sim_clock.now_ns()
+        due = [item for item in held if item.msg.stamp_ns < now_ns]
+        if not due:
+            return
+        self._held = [item for item in held if item.msg.stamp_ns >= now_ns]
+        due.sort(key=lambda item: (item.msg.stamp_ns, item.msg.source, item.msg.seq))
+        for item in due:
+            self._take(item)
+
+    def _take(self, item: Received[M]) -> None:
+        """Count and queue one decoded message."""
+        stats, msg = self._stats, item.msg
         last = self._last_seq.get(msg.source)
         if last is not None and msg.seq > last + 1:
             stats.seq_gaps += msg.seq - last - 1
         self._last_seq[msg.source] = msg.seq
         stats.accepted += 1
-        item = Received(msg, rx)
         if len(self._queue) == self._queue.maxlen:
             stats.overflowed += 1
         self._queue.append(item)
         self._latest = item
-        return True
 
     @property
     def stats(self) -> SubscriptionStats:
@@ -179,7 +229,10 @@ class TypedSubscription(Generic[M]):
         self._pump()
         if self._latest is None:
             return float("inf")
-        now = time.monotonic() if now_monotonic is None else now_monotonic
+        if now_monotonic is not None:
+            now = now_monotonic
+        else:
+            now = time.monotonic() if self._sim_clock is None else self._sim_clock.now_s()
         return now - self._latest.rx_monotonic
 
     def undeclare(self) -> None:
@@ -193,13 +246,24 @@ class TypedPublisher(Generic[M]):
     """Publisher of one topic; fills the header (per-publisher `seq`, `stamp_ns` from the
     process's `SENDER_CLOCK`, `source`)."""
 
-    def __init__(self, node: ServiceNode, topic: Topic) -> None:
+    def __init__(self, node: ServiceNode, topic: Topic, stamps: SenderClock | None = None) -> None:
+        """`stamps`: the stamp source (default: the process's `SENDER_CLOCK`; a publisher
+        paced by the wall clock on the simulation clock, a heartbeat's, has its own, so that
+        how often it sends never shifts the other publishers' stamps)."""
         self.topic = topic
+        self._stamps = SENDER_CLOCK if stamps is None else stamps
         self.key = topic.sender_key(node.name, node.profile.prefix)
         self._source = node.name
         self._seq = 0
+        # An event (a goal, a stop, a release) gets the simulation clock an event step.
+        self._clock = node.clock
+        self._is_event = topic.delivery == "safety" and topic.nominal_rate_hz == 0
         self._lock = threading.Lock()
-        if topic.delivery == "safety":
+        if node.clock.is_sim:
+            # The simulation clock: one priority, never dropped, so that on every link a clock
+            # message follows whatever its sender sent before it (`services.runtime.clock`).
+            cc, prio = zenoh.CongestionControl.BLOCK, zenoh.Priority.DATA
+        elif topic.delivery == "safety":
             cc, prio = zenoh.CongestionControl.BLOCK, zenoh.Priority.REAL_TIME
         else:
             cc, prio = zenoh.CongestionControl.DROP, zenoh.Priority.DATA
@@ -217,7 +281,7 @@ class TypedPublisher(Generic[M]):
         with self._lock:
             seq = self._seq
             self._seq += 1
-        return {"seq": seq, "stamp_ns": SENDER_CLOCK.now_ns(), "source": self._source}
+        return {"seq": seq, "stamp_ns": self._stamps.now_ns(), "source": self._source}
 
     def put(self, **fields: Any) -> M:
         """Build a message of the topic's type from `fields` plus a fresh header; publish it.
@@ -227,11 +291,15 @@ class TypedPublisher(Generic[M]):
         """
         msg = self.topic.type(**self.next_header(), **fields)
         self._send(encode_for(self.topic, msg))
+        if self._is_event:
+            self._clock.note_event()
         return msg  # type: ignore[return-value]
 
     def put_message(self, msg: M) -> None:
         """Publish a message built elsewhere (its header is sent as is)."""
         self._send(encode_for(self.topic, msg))
+        if self._is_event:
+            self._clock.note_event()
 
     def put_raw(self, payload: bytes) -> None:
         """Publish raw bytes on this key (fault injection and fuzzing only)."""

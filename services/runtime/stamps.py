@@ -11,6 +11,9 @@ stamp it gave in this process: after a backward step it counts on from the last 
 until the clock catches up, so stamps of one process are strictly increasing across all its
 publishers and threads. Across processes and hosts nothing is promised (and nothing compares
 them): freshness is judged by local receive time.
+
+On the simulation clock (`services.runtime.clock`) the process's stamps follow the simulated
+time instead (`SenderClock.follow`): ns since the run's start, still strictly increasing.
 """
 
 from __future__ import annotations
@@ -31,6 +34,12 @@ class SenderClock:
         self._wall_ns = wall_ns
         self._last_ns = 0
         self._lock = threading.Lock()
+
+    def follow(self, clock_ns: Callable[[], int]) -> None:
+        """Stamp with `clock_ns` from now on (the simulation clock's time, ns)."""
+        with self._lock:
+            self._wall_ns = clock_ns
+            self._last_ns = 0
 
     def now_ns(self) -> int:
         """The next stamp: the wall clock, or the last stamp + 1 ns if the clock is behind it."""

@@ -139,11 +139,12 @@ class HealthWatch:
             return Stall(late_s, settle=False)
         return None
 
-    def check(self, now_s: float) -> list[FaultReport]:
+    def check(self, now_s: float, wall_now_s: float | None = None) -> list[FaultReport]:
         """The new faults at `now_s` (s), each with what it means (see `excused` for the
-        silences excused as starvation)."""
+        silences excused as starvation). `wall_now_s`: the local monotonic time on the
+        simulation clock (heartbeats are timed on it; `Watchdog.check`)."""
         reports = []
-        for fault in self.watchdog.check(now_s):
+        for fault in self.watchdog.check(now_s, wall_now_s):
             critical = self.config.watch.get(fault.service, "critical") == "critical"
             starved = (self.starvation.explain(fault.service)
                        if self.starvation is not None and fault.what == "silent" else "n/a")

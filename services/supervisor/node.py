@@ -88,7 +88,8 @@ class _Inputs:
     def __init__(self, node: ServiceNode) -> None:
         self.liveliness: queue.SimpleQueue[tuple[str, bool, float]] = queue.SimpleQueue()
         self.subs = {name: node.subscribe(t, queue_size=q, wake=False) for name, t, q in TICK_INPUTS}
-        self.heartbeats = node.subscribe(topics.HEARTBEAT, queue_size=512, wake=False)
+        # Liveness is judged on the wall clock, on the simulation clock too.
+        self.heartbeats = node.subscribe(topics.HEARTBEAT, queue_size=512, wake=False, wall_time=True)
 
     def take(self, sup: Supervision) -> None:
         """Feed the health watch and the snapshot with everything received so far."""
@@ -107,18 +108,20 @@ class _Inputs:
 
 
 def _watch(sup: Supervision, health: HealthWatch, inputs: _Inputs, now: float,
-           act: Callable[[Actions, float], None], excuse_log: RateLimitedLog, stall_log: RateLimitedLog) -> float:
+           act: Callable[[Actions, float], None], excuse_log: RateLimitedLog, stall_log: RateLimitedLog,
+           sim_clock: bool = False) -> float:
     """Take the watchdog's inputs in, note a late wake of this loop (and let a starved one
-    settle), and act on every fault the health watch reports. Returns the time now, s."""
+    settle), and act on every fault the health watch reports (`sim_clock`: heartbeats are
+    timed on the wall clock, the rest on the simulation clock's `now`). Returns the time now, s."""
     inputs.take(sup)
-    stall = sup.woke(now)
+    stall = None if sim_clock else sup.woke(now)  # simulated time is never late
     if stall is not None:
         stall_log.warning("stall", stall.message(), late_ms=stall.late_ms)
         if stall.settle:
             time.sleep(SELF_STALL_SETTLE_S)
             inputs.take(sup)
             now = time.monotonic()
-    reports = health.check(now)
+    reports = health.check(now, time.monotonic() if sim_clock else None)
     for service, why in health.excused:
         excuse_log.info(service, f"{service}: {why}")
     for report in reports:
@@ -141,12 +144,12 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
         truth = node.subscribe(topics.SIM_TRUTH, queue_size=1, wake=False) if simulated_robot(profile) else None
 
         def on_liveliness(name: str, alive: bool) -> None:
-            inputs.liveliness.put((name, alive, time.monotonic()))
+            inputs.liveliness.put((name, alive, node.clock.now_s()))
             node.wake_up()
 
         watcher = LivelinessWatcher(node.session, profile.prefix, on_change=on_liveliness)
         node.ready()
-        sup = Supervision(config, health, RIGHT_ARM_HOME_RAD, time.monotonic())
+        sup = Supervision(config, health, RIGHT_ARM_HOME_RAD, node.clock.now_s())
         seq = sup.sequencer
         # Every wake-up (a release, any watched input, a liveliness change) runs an extra tick
         # at once for the release interrupt and the watchdog; the sequencer ticks on the grid.
@@ -157,12 +160,12 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
 
         try:
             for _tick in loop:
-                now = time.monotonic()
+                now = node.clock.now_s()
                 # 1. The release interrupt first.
                 for rx in releases.drain():
                     act(seq.on_release(rx.rx_monotonic, f"release event from {rx.msg.source}"), now)
                 # 2. Watchdog inputs; a loop that was itself starved takes queued messages in first.
-                now = _watch(sup, health, inputs, now, act, excuse_log, stall_log)
+                now = _watch(sup, health, inputs, now, act, excuse_log, stall_log, node.clock.is_sim)
                 if loop.urgent_tick:
                     continue
                 # 3. Start when everyone is up, 4. the sequencer's tick.

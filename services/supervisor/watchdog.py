@@ -199,21 +199,26 @@ class Watchdog:
             w.streams[suffix] = at_s
 
     # ------------------------------------------------------------------ judging
-    def check(self, now_s: float) -> list[Fault]:
-        """New faults at local time `now_s` (each reported once until recovery)."""
-        out = self.pending(now_s)
+    def check(self, now_s: float, wall_now_s: float | None = None) -> list[Fault]:
+        """New faults at local time `now_s` (each reported once until recovery).
+
+        `wall_now_s`: on the simulation clock, the local monotonic time (s): heartbeats, and
+        the excuser's readings, are timed on it (liveness is a wall-clock matter) and the data
+        streams on `now_s` (simulated time). None: one clock for both."""
+        out = self.pending(now_s, wall_now_s)
         for fault in out:
             self._w[fault.service].reported = True
         return out
 
-    def pending(self, now_s: float) -> list[Fault]:
+    def pending(self, now_s: float, wall_now_s: float | None = None) -> list[Fault]:
         """The faults `check` would report at `now_s`, without reporting them (silences the
         excuser excuses are listed in `excused` instead)."""
         out = []
         self.excused = []
         exited: set[str] = set()
+        wall_s = now_s if wall_now_s is None else wall_now_s
         if self.excuser is not None:
-            self.excuser.tick(now_s)
+            self.excuser.tick(wall_s)
             exited = self.excuser.exited()
         for name, w in self._w.items():
             if w.reported or not w.seen:
@@ -222,39 +227,42 @@ class Watchdog:
                 detail = "process gone (liveliness token lost)" if not w.alive else "process gone (it exited)"
                 out.append(Fault(name, "lost", detail, now_s, w.lost_at_s or now_s))
                 continue
-            fault, excusable = self._silence(name, w, now_s)
+            fault, excusable, on_wall = self._silence(name, w, now_s, wall_s)
             if fault is None:
                 continue
             why = None
-            if excusable and self.excuser is not None and now_s - fault.since_s <= self.max_excused_s:
-                why = self.excuser.excuse(name, now_s)
+            silent_for_s = (wall_s if on_wall else now_s) - fault.since_s
+            if excusable and self.excuser is not None and silent_for_s <= self.max_excused_s:
+                why = self.excuser.excuse(name, wall_s)
             if why is None:
                 out.append(fault)
             else:
                 self.excused.append((name, f"{fault.detail}, excused: starved of CPU ({why})"))
         return out
 
-    def _silence(self, name: str, w: _Watched, now_s: float) -> tuple[Fault | None, bool]:
-        """The silence fault of one live service at `now_s` (None: it is not silent) and
-        whether starvation may excuse it (not when its process is stopped); a service quiet
-        for `note_after_s` is noted to the excuser."""
+    def _silence(self, name: str, w: _Watched, now_s: float, wall_s: float) -> tuple[Fault | None, bool, bool]:
+        """The silence fault of one live service at `now_s` (None: it is not silent), whether
+        starvation may excuse it (not when its process is stopped) and whether it was timed on
+        the wall clock `wall_s` (a heartbeat's); a service quiet for `note_after_s` is noted
+        to the excuser."""
         timeout_s = self.heartbeat_timeouts_s.get(name, self.heartbeat_timeout_s)
-        beat_quiet_s = 0.0 if w.last_beat_s is None else now_s - w.last_beat_s
+        beat_quiet_s = 0.0 if w.last_beat_s is None else wall_s - w.last_beat_s
         quiet_s = 0.0  # of the owned streams
-        fault = None
+        fault, on_wall = None, True
         if w.last_beat_s is not None and beat_quiet_s > timeout_s:
             fault = Fault(name, "silent", f"silent: no heartbeat for {beat_quiet_s:.3f} s", now_s, w.last_beat_s)
         else:
+            on_wall = wall_s == now_s
             for suffix, at_s in w.streams.items():
                 quiet_s = max(quiet_s, now_s - at_s)
                 if now_s - at_s > self.stream_timeout_s:
                     fault = Fault(name, "silent", f"silent: no {suffix} for {now_s - at_s:.3f} s", now_s, at_s)
                     break
         if (fault is None and w.last_beat_s is not None and self.excuser is not None
-                and beat_quiet_s > self.stopped_after_s and self.excuser.stopped(name, now_s)):
+                and beat_quiet_s > self.stopped_after_s and self.excuser.stopped(name, wall_s)):
             fault = Fault(name, "silent", f"silent: no heartbeat for {beat_quiet_s:.3f} s, its process is stopped",
                           now_s, w.last_beat_s)
-            return fault, False
+            return fault, False, True
         if self.excuser is not None and (beat_quiet_s > self.note_after_s or quiet_s > self.stream_note_after_s):
-            self.excuser.note(name, now_s, now_s - max(quiet_s, beat_quiet_s))
-        return fault, True
+            self.excuser.note(name, wall_s, wall_s - max(quiet_s, beat_quiet_s))
+        return fault, True, on_wall

@@ -12,7 +12,6 @@ whenever an object detection runs.
 from __future__ import annotations
 
 import logging
-import time
 from pathlib import Path
 
 import numpy as np
@@ -97,7 +96,7 @@ class _Feeder:
 def _inputs(node: ServiceNode, config: TrackerConfig, replay_path: Path | None, replay_loop: bool):
     """The tick's input source: a replay file, the in-process simulated Kinect or the bus."""
     if replay_path is not None:
-        return ReplayInputs(replay_path, replay_loop, time.monotonic())
+        return ReplayInputs(replay_path, replay_loop, node.clock.now_s())
     if config.sensor == "sim":
         return SimKinectInputs(config.sim_kinect, node, config.publish_depth)
     return BusInputs(node)
@@ -120,7 +119,7 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
         last_publish = 0.0
         last_status = None
         for _tick in node.loop(rate_hz):
-            now = time.monotonic()
+            now = node.clock.now_s()
             ended = not inputs.feed(feeder, now)  # a replay's end: its last frames still count
             det = pipe.detect_object()
             if det is not None:

@@ -30,7 +30,7 @@ def test_every_message_has_the_common_header(topic):
 
 def test_keys_are_under_the_versioned_prefix_and_unique():
     keys = [t.key() for t in TOPICS]
-    assert len(set(keys)) == len(keys) == 20
+    assert len(set(keys)) == len(keys) == 22
     assert all(k.startswith(f"handover/v{bus_schema.SCHEMA_VERSION}/") for k in keys)
     assert topics.topic_for_key("handover/v1/robot/joint_state") is topics.JOINT_STATE
     assert topics.topic_for_key("handover/v2/robot/joint_state") is None
@@ -43,9 +43,10 @@ def test_design_keys_all_present():
               "perception/skeleton", "perception/depth", "perception/human", "perception/object",
               "planner/transfer", "motion/goal", "motion/status", "motion/stop", "gripper/command",
               "gripper/state", "gripper/release", "supervisor/state", "sim/truth"}
-    # Beyond DESIGN §4: the supervisor's episode summary, every service's heartbeat and the
-    # simulated Kinect's ground truth.
-    assert {t.suffix for t in TOPICS} == wanted | {"supervisor/episode", "runtime/heartbeat", "sim/kinect_truth"}
+    # Beyond DESIGN §4: the supervisor's episode summary, every service's heartbeat, the
+    # simulated Kinect's ground truth and the simulation clock's steps and answers.
+    assert {t.suffix for t in TOPICS} == wanted | {"supervisor/episode", "runtime/heartbeat", "sim/kinect_truth",
+                                                   "sim/clock", "sim/clock_ready"}
 
 
 def test_safety_keys_are_the_safety_relevant_ones():

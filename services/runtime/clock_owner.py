@@ -1,0 +1,197 @@
+"""The simulation clock's owner: the bridge's simulation grants the steps (`ClockBarrier` on the
+bus). See `services.runtime.clock` for the protocol.
+
+The owner's loop calls `wait(timeout_s)` like any participant: it grants steps to the others
+until time reaches its own deadline (or an event step), then returns and runs its tick at that
+time, concurrently with the participants due at the same step. While it waits for an answer it
+asks the kernel, every `STOPPED_CHECK_S` of wall time, whether the quiet participant's process
+is stopped or gone (SIGSTOP, a crash): then it stops waiting for it, so that the stack's
+watchdogs (which judge liveness on the wall clock) see the fault instead of a frozen clock.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import threading
+import time
+from typing import TYPE_CHECKING, Any
+
+from bus_schema import decode, topics
+from services.runtime.clock import CLOCK_ENV, ClockError, SimClock, WallClock, clock_source, seconds_to_ns
+from services.runtime.clock_barrier import ClockBarrier, Step
+from services.runtime.liveliness import LivelinessWatcher
+from services.runtime.logs import RateLimitedLog
+from services.runtime.sched import read_state
+
+if TYPE_CHECKING:
+    from services.runtime.node import ServiceNode
+    from services.runtime.profile import Profile
+
+log = logging.getLogger(__name__)
+
+#: How often (wall s) the owner asks the kernel about a participant it has waited for.
+STOPPED_CHECK_S = 0.05
+#: A participant quiet for this long (wall s) while running is said in the log (rate-limited).
+SLOW_REPORT_S = 5.0
+#: The owner waits for the expected participants' first answers at most this long (wall s).
+START_TIMEOUT_S = 60.0
+
+
+def expected_participants(profile_services: list[str], owner: str, override: str | None) -> frozenset[str]:
+    """The participants the clock waits for: `override` (comma-separated names, from
+    ``HANDOVER_CLOCK_PARTICIPANTS``, which the launcher sets to the services it starts) or every
+    service of the profile except the owner and the recorder (which paces nothing)."""
+    if override is not None:
+        names = {n.strip() for n in override.split(",") if n.strip()}
+    else:
+        names = set(profile_services)
+    return frozenset(names - {owner, "recorder"})
+
+
+def make_clock(name: str, role: str, profile: Profile) -> WallClock | SimClock | ClockOwner:
+    """The clock of service `name` under `profile` (`clock_source`): the wall clock, or on the
+    simulation clock its `role`'s: ``owner`` (this module's `ClockOwner`, waiting for the
+    participants of ``HANDOVER_CLOCK_PARTICIPANTS`` or the profile), ``participant`` or
+    ``observer`` (a `SimClock`).
+
+    Raises:
+        ValueError: an unknown role.
+    """
+    if role not in ("participant", "owner", "observer"):
+        raise ValueError(f"clock_role must be participant, owner or observer, not {role!r}")
+    if clock_source(profile.clock) != "sim":
+        return WallClock()
+    if role == "owner":
+        override = os.environ.get(CLOCK_ENV + "_PARTICIPANTS")
+        return ClockOwner(name, expected_participants([s.name for s in profile.services], name, override))
+    return SimClock(name)
+
+
+class ClockOwner:
+    """The owner's clock: same interface as `SimClock` (`now_s`, `wait`, `note_event`, `close`).
+
+    Args:
+        name: the owner's service name.
+        expected: the participants to wait for before the first step.
+    """
+
+    is_sim = True
+
+    def __init__(self, name: str, expected: frozenset[str]) -> None:
+        self.name = name
+        self.barrier = ClockBarrier(expected)
+        self._cond = threading.Condition()
+        self._grant_pub: Any = None
+        self._stopping: threading.Event | None = None
+        self._watcher: LivelinessWatcher | None = None
+        self._slow_log = RateLimitedLog(log, SLOW_REPORT_S)
+        self._started_wall_s: float | None = None
+
+    def attach(self, node: ServiceNode) -> None:
+        """Grant steps on `node`'s bus and take the participants' answers and liveliness."""
+        self._stopping = node.stop_event
+        self._grant_pub = node.publisher(topics.CLOCK, own_stamps=True)
+        node.session.declare_subscriber(topics.CLOCK_READY.key(node.profile.prefix), self._on_ready)
+        self._watcher = LivelinessWatcher(node.session, node.profile.prefix, on_change=self._on_liveliness)
+
+    # ------------------------------------------------------------------ Zenoh threads
+    def _on_ready(self, sample: Any) -> None:
+        try:
+            msg = decode(topics.CLOCK_READY, sample.payload.to_bytes())
+        except Exception:  # noqa: BLE001 - a malformed answer is ignored (the sender answers again)
+            return
+        with self._cond:
+            self.barrier.ready(msg.source, msg.done_ns, msg.next_ns, events=msg.events, leaving=msg.leaving,
+                               pid=msg.pid)
+            self._cond.notify_all()
+
+    def _on_liveliness(self, name: str, alive: bool) -> None:
+        if not alive:
+            with self._cond:
+                self.barrier.excuse(name)
+                self._cond.notify_all()
+
+    # ------------------------------------------------------------------ the clock
+    def now_ns(self) -> int:
+        return self.barrier.now_ns
+
+    def now_s(self) -> float:
+        return self.barrier.now_ns / 1e9
+
+    def note_event(self) -> None:
+        """The owner's own events need no step: it acts on the next one anyway."""
+        with self._cond:
+            self.barrier.event_pending = True
+
+    def wake(self) -> None:
+        with self._cond:
+            self._cond.notify_all()
+
+    def wait_for_start(self) -> None:
+        """Block until every expected participant has answered once (all of them listen), so
+        that the owner's first tick, at time 0, reaches every one of them (or until shutdown).
+
+        Raises:
+            ClockError: one did not answer within `START_TIMEOUT_S`.
+        """
+        with self._cond:
+            while not self.barrier.started:
+                if self._stopping is not None and self._stopping.is_set():
+                    return
+                self._cond.wait(STOPPED_CHECK_S)
+                self._check_quiet(0.0)
+
+    def wait(self, timeout_s: float) -> bool:
+        """Grant steps until time reaches ``now + timeout_s`` or an event step; returns True at
+        a step of the owner's, False on shutdown."""
+        if self._grant_pub is None:
+            raise ClockError(f"{self.name}: the simulation clock's owner is not attached to a bus session")
+        owner_next_ns = self.barrier.now_ns + max(0, seconds_to_ns(timeout_s))
+        while True:
+            step = self._next_step(owner_next_ns)
+            if step is None:
+                return False
+            self._grant_pub.put(step=step.number, time_ns=step.time_ns, due=list(step.due))
+            if step.owner_due:
+                return True
+
+    def _next_step(self, owner_next_ns: int) -> Step | None:
+        """The next step once the barrier allows it (None on shutdown)."""
+        waited_s = 0.0
+        with self._cond:
+            while True:
+                if self._stopping is not None and self._stopping.is_set():
+                    return None
+                step = self.barrier.next_step(owner_next_ns)
+                if step is not None:
+                    return step
+                self._cond.wait(STOPPED_CHECK_S)
+                waited_s += STOPPED_CHECK_S
+                self._check_quiet(waited_s)
+
+    def _check_quiet(self, waited_s: float) -> None:
+        """Excuse the awaited participants whose process is stopped or gone (lock held)."""
+        barrier = self.barrier
+        if not barrier.started:
+            if self._started_wall_s is None:
+                self._started_wall_s = time.monotonic()
+            elif time.monotonic() - self._started_wall_s > START_TIMEOUT_S:
+                raise ClockError(f"the simulation clock waited {START_TIMEOUT_S:.0f} s for "
+                                 f"{', '.join(barrier.unregistered())}: are they running on the simulation clock?")
+            return
+        for name in barrier.waiting_for():
+            pid = barrier.pid_of(name)
+            state = read_state(pid) if pid else None
+            if state is None or state in "TtZXx":
+                log.warning("simulation clock: %s is %s: not waiting for it", name,
+                            "gone" if state is None else "stopped")
+                barrier.excuse(name)
+            elif waited_s > SLOW_REPORT_S:
+                self._slow_log.warning(name, f"simulation clock: waiting for {name} for {waited_s:.0f} s "
+                                             f"(process state {state})")
+
+    def close(self) -> None:
+        if self._watcher is not None:
+            self._watcher.undeclare()
+            self._watcher = None
