@@ -91,6 +91,10 @@ class _Feeder:
         except ValueError as exc:  # e.g. a zero-norm or inconsistent camera pose
             self.warnings.warning("depth", f"depth image ignored: {exc}")
 
+    def new_person(self) -> None:
+        """The receiver is another person from now on (`TrackerPipeline.new_person`)."""
+        self.pipe.new_person()
+
     def skeleton(self, msg, t_s: float) -> None:
         self.human.append(self.pipe.on_skeleton(skeleton_frame_from_message(msg, t_s)))
 

@@ -29,6 +29,8 @@ _CHILD = re.compile(rf"^/?({'|'.join(SKELETON_JOINTS)})_(\d{{1,5}})$")
 _INDEX = {name: i for i, name in enumerate(SKELETON_JOINTS)}
 #: A joint farther than this from the camera is a bad value, not a person, m.
 MAX_JOINT_RANGE_M = 20.0
+#: The largest user id taken (`bus_schema.messages.Skeleton.user_id`'s bound).
+MAX_USER_ID = 65535
 
 
 @dataclass(frozen=True)
@@ -58,7 +60,11 @@ def joint_samples(msg: TFMessage, frame_id: str, rx_s: float) -> tuple[list[Join
         if tf.header.frame_id.lstrip("/") != frame or not math.hypot(*p) <= MAX_JOINT_RANGE_M:  # NaN fails too
             bad += 1
             continue
-        out.append(JointSample(int(match.group(2)), match.group(1), tf.header.stamp.to_ns(), p, rx_s))
+        user = int(match.group(2))
+        if user > MAX_USER_ID:  # the bus's user_id bound (openni_tracker counts from 1)
+            bad += 1
+            continue
+        out.append(JointSample(user, match.group(1), tf.header.stamp.to_ns(), p, rx_s))
     return out, bad
 
 
@@ -134,6 +140,14 @@ class SkeletonAssembler:
     def forget(self, user: int) -> None:
         """Drop a user's state (openni_tracker lost them; a new user may reuse the id)."""
         self._users.pop(user, None)
+
+    def prune(self, now_s: float, lost_s: float) -> list[int]:
+        """Forget users with no joint for `lost_s` (s) at `now_s` (local s): a user whose
+        frames never complete is not kept for ever. Returns their ids."""
+        gone = [uid for uid, user in self._users.items() if now_s - user.rx_s > lost_s]
+        for uid in gone:
+            del self._users[uid]
+        return gone
 
 
 class ReceiverChooser:

@@ -9,9 +9,10 @@ each tick it
 
 - assembles openni_tracker's joint transforms into frames (`skeleton.SkeletonAssembler`,
   out-of-order joints dropped and counted), converts them into `base` with the calibration,
-  picks the receiver among the users (`skeleton.ReceiverChooser`), publishes the receiver's
-  frame on `perception/skeleton` and feeds it to the pipeline; while no frame of the receiver
-  comes it publishes a not-tracked skeleton every 0.1 s (the pipeline reports the loss on
+  picks the receiver among the users (`skeleton.ReceiverChooser`; when it changes, the
+  pipeline forgets the previous person), publishes the receiver's frame on
+  `perception/skeleton` and feeds it to the pipeline; while no frame of the receiver comes it
+  publishes a not-tracked skeleton every 0.1 s (the pipeline reports the loss on
   `perception/human` after its ``skeleton_timeout_s``, and the supervisor holds);
 - converts the newest depth image with the newest camera info (`depth.depth_fields`), feeds it
   (and publishes it on `perception/depth` with ``publish_depth``).
@@ -157,7 +158,10 @@ class Ros1KinectInputs:
         chosen = self.chooser.choose(frames, now_s)
         for user in self.chooser.forgotten(now_s):
             self.assembler.forget(user)
+        self.assembler.prune(now_s, self.config.user_lost_s)
         if self.chooser.receiver != previous:
+            if self.chooser.receiver is not None:
+                feeder.new_person()  # no torso, speed or body window carried over from someone else
             log.info("receiver: %s", "none in the transfer region" if self.chooser.receiver is None
                      else f"user {self.chooser.receiver}", extra=kv(switches=self.chooser.switches))
         if chosen is not None:

@@ -100,9 +100,10 @@ def test_other_frames_on_tf_are_ignored_and_unusable_joints_counted():
         TransformStamped(Header(frame_id=FRAME), "torso_1", Transform(Vector3(1e3, 0, 0))),
         TransformStamped(Header(frame_id="/" + FRAME), "/left_hand_2", Transform(Vector3(1, 0, 0))),
         TransformStamped(Header(frame_id=FRAME), "left_hand_x", Transform(Vector3(1, 0, 0))),
+        TransformStamped(Header(frame_id=FRAME), "left_hand_65536", Transform(Vector3(1, 0, 0))),  # id too large
     ))
     samples, bad = joint_samples(TFMessage.from_bytes(tf.to_bytes()), FRAME, 2.0)
-    assert bad == 3
+    assert bad == 4
     assert [(s.user, s.joint, s.position_m) for s in samples] == [(2, "left_hand", (1.0, 0.0, 0.0))]
 
 
@@ -156,3 +157,12 @@ def test_the_default_transfer_centre_is_the_table_and_prefers_the_scenes_receive
     bystander = frame_at(2, tuple(scene.RECEIVER_TORSO_BASE_XY_M + (0.6, 0.9)), 0.0)  # deploy/baxter_fake.toml's
     assert chooser.choose([bystander, receiver], 0.0) is receiver
     assert chooser.distance_m(receiver) < 0.6 < chooser.distance_m(bystander) - config.switch_margin_m
+
+
+def test_users_whose_frames_never_complete_are_forgotten():
+    assembler = SkeletonAssembler(POSE, 0.015)
+    for user in range(1, 200):  # a flood of partial skeletons (one joint each)
+        feed(assembler, wire(body_in_camera(), user, 10**9)[:1], rx_s=1.0)
+    feed(assembler, wire(body_in_camera(), 500, 10**9), rx_s=1.4)
+    assert assembler.prune(1.6, lost_s=0.5) == list(range(1, 200))
+    assert [f.user for f in assembler.complete()] == [500]

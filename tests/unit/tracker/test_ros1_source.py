@@ -84,6 +84,8 @@ def test_the_receivers_skeleton_reaches_the_pipeline_in_base(rig):
     # the table than it, takes over): the receiver is user 7 once both are in.
     assert feed_until(inputs, feeder, lambda: inputs.assembler.frames == 2), inputs.stats()
     assert inputs.chooser.receiver == 7
+    # Whether or not the bystander was fed first, nothing of it is left in the pipeline's
+    # torso (a median over recent frames): the switch made the pipeline forget it.
     state = feeder.pipe.human_state(time.monotonic())
     assert state.tracked
     np.testing.assert_allclose(state.torso_m, [1.0, -0.2, 0.1], atol=1e-9)
@@ -124,3 +126,14 @@ def test_the_loss_of_the_skeleton_is_reported_and_a_late_depth_image_dropped(rig
     assert time.monotonic() - lost_from >= timeout_s - 0.05
     assert "stale" in feeder.pipe.human_state(time.monotonic()).status
     assert wait_until(lambda: any(not rx.msg.tracked for rx in skeletons.drain()), 2.0)
+
+
+def test_a_switch_of_receiver_leaves_nothing_of_the_previous_person_in_the_pipeline(rig):
+    inputs, feeder, camera, _ = rig
+    camera.skeleton(body_at((1.6, 1.0)), user=4, stamp_ns=10**9)  # only the bystander so far
+    assert feed_until(inputs, feeder, lambda: inputs.chooser.receiver == 4), inputs.stats()
+    np.testing.assert_allclose(feeder.pipe.human_state(time.monotonic()).torso_m, [1.6, 1.0, 0.1], atol=1e-9)
+    camera.skeleton(body_at((1.0, -0.2)), user=7, stamp_ns=2 * 10**9)  # the receiver walks in
+    assert feed_until(inputs, feeder, lambda: inputs.chooser.receiver == 7), inputs.stats()
+    np.testing.assert_allclose(feeder.pipe.human_state(time.monotonic()).torso_m, [1.0, -0.2, 0.1], atol=1e-9)
+    assert inputs.chooser.switches == 2
