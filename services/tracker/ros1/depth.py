@@ -30,6 +30,7 @@ class DepthConversionError(ValueError):
 def _depth_mm(image: Image) -> np.ndarray:
     """(H, W) uint16 mm, little-endian, from the image's data."""
     h, w = image.height, image.width
+    dtype: np.dtype
     if image.encoding in ("16UC1", "mono16"):
         size, dtype = 2, np.dtype(">u2" if image.is_bigendian else "<u2")
     elif image.encoding == "32FC1":

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -26,7 +27,7 @@ from services.tracker.ros1.calibration import CameraPose
 from services.tracker.ros1.messages import TFMessage
 
 _CHILD = re.compile(rf"^/?({'|'.join(SKELETON_JOINTS)})_(\d{{1,5}})$")
-_INDEX = {name: i for i, name in enumerate(SKELETON_JOINTS)}
+_INDEX: dict[str, int] = {name: i for i, name in enumerate(SKELETON_JOINTS)}
 #: A joint farther than this from the camera is a bad value, not a person, m.
 MAX_JOINT_RANGE_M = 20.0
 #: The largest user id taken (`bus_schema.messages.Skeleton.user_id`'s bound).
@@ -163,7 +164,8 @@ class ReceiverChooser:
         centre_m: (3,) the transfer region's centre, m, `base`.
     """
 
-    def __init__(self, centre_m: np.ndarray, max_distance_m: float, margin_m: float, lost_s: float) -> None:
+    def __init__(self, centre_m: Sequence[float] | np.ndarray, max_distance_m: float, margin_m: float,
+                 lost_s: float) -> None:
         self.centre_xy = np.asarray(centre_m, float)[:2]
         self.max_distance_m = max_distance_m
         self.margin_m = margin_m

@@ -135,3 +135,22 @@ def test_the_tracker_refuses_to_start_without_its_calibration_file(tmp_path):
     run = subprocess.run([sys.executable, "-m", "services.tracker", "--profile", str(profile)],
                          capture_output=True, text=True, timeout=60)
     assert run.returncode == 2 and "needs ros1.calibration_file" in run.stdout + run.stderr
+
+
+def test_calibrate_kinect_writes_a_file_the_tracker_loads(tmp_path):
+    true = CameraPose(np.array([0.12, -0.03, 0.9]), Rotation.from_euler("xyz", [0, 35, -15], degrees=True).as_matrix())
+    camera_points = np.array([[1.0, 0.3, -0.2], [1.4, -0.3, -0.5], [0.9, -0.1, 0.1], [1.8, 0.4, -0.6],
+                              [1.2, 0.0, -0.3]])
+    rows = np.hstack([camera_points, true.to_base(camera_points)])
+    pairs = tmp_path / "pairs.csv"
+    pairs.write_text("camera_x,camera_y,camera_z,base_x,base_y,base_z\n"
+                     + "".join(",".join(f"{v:.6f}" for v in row) + "\n" for row in rows))
+    out = tmp_path / "kinect.toml"
+    command = [sys.executable, "-m", "services.tracker", "calibrate-kinect", str(pairs), "-o", str(out)]
+    run = subprocess.run(command, capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "rms 0.0 mm" in run.stdout
+    pose = load_calibration(out, "openni_depth_frame")
+    np.testing.assert_allclose(pose.to_base(camera_points), rows[:, 3:], atol=2e-4)
+    again = subprocess.run(command, capture_output=True, text=True, timeout=60)  # no silent overwrite
+    assert again.returncode == 2 and "exists: pass --force" in again.stdout + again.stderr
