@@ -59,12 +59,14 @@ PUBLISHES: dict[str, tuple[T.Topic, ...]] = {
 
 #: ROS 1 keys (zenoh-bridge-ros1's ``<type>/<md5>/<topic>``, any namespace or key format:
 #: ``**``) for the Baxter profiles: the bridge's Baxter backend sends the robot's commands, the
-#: fake Baxter (robot, sensors and zenoh-bridge-ros1 in one process) its state and sensors.
+#: fake Baxter (robot, sensors and zenoh-bridge-ros1 in one process) its state and sensors,
+#: and as the fake OpenNI camera openni_tracker's ``/tf`` and the depth camera's topics.
 ROS_PUBLISHES: dict[str, tuple[str, ...]] = {
     "bridge": ("**/robot/limb/right/joint_command", "**/robot/limb/right/joint_command_timeout",
                "**/robot/set_super_enable", "**/robot/end_effector/right_gripper/command"),
     "fake_baxter": ("**/robot/joint_states", "**/robot/state", "**/handover/wrist_wrench",
-                    "**/handover/optical_motion"),
+                    "**/handover/optical_motion", "**/tf", "**/camera/depth/image_raw",
+                    "**/camera/depth/camera_info"),
 }
 
 #: The file of the router's dictionary (every user) in the run's folder.
@@ -139,21 +141,23 @@ def create_run_logins(directory: Path, users: Iterable[str]) -> RunLogins:
 
 
 #: Keys a service publishes only in some set-ups: the tracker renders the Kinect only with
-#: ``sensor = "sim"``, the bridge runs the simulation (and its truth) only with the sim backend.
+#: ``sensor = "sim"`` (with ``"ros1"`` it publishes the skeleton and depth it converts, but no
+#: Kinect truth), the bridge runs the simulation (and its truth) only with the sim backend.
 _SIM_ONLY: dict[str, tuple[T.Topic, ...]] = {"tracker": (T.SKELETON, T.DEPTH, T.KINECT_TRUTH), "bridge": (T.SIM_TRUTH,)}
 
 
-def _in_use(name: str, profile: Profile | None) -> bool:
-    """Whether `name`'s set-up in `profile` uses its `_SIM_ONLY` keys (no profile: yes)."""
+def _unused(name: str, profile: Profile | None) -> tuple[T.Topic, ...]:
+    """The `_SIM_ONLY` keys `name`'s set-up in `profile` does not publish (no profile: none)."""
     if profile is None:
-        return True
+        return ()
     from services.bridge.config import BridgeConfig
     from services.tracker.config import TrackerConfig
 
     config = profile.service_config(name)
     if name == "tracker":
-        return config.get("sensor", TrackerConfig().sensor) == "sim"  # the tracker's own default
-    return config.get("backend", BridgeConfig().backend) == "sim"
+        sensor = config.get("sensor", TrackerConfig().sensor)  # the tracker's own default
+        return {"sim": (), "ros1": (T.KINECT_TRUTH,)}.get(sensor, _SIM_ONLY["tracker"])
+    return () if config.get("backend", BridgeConfig().backend) == "sim" else _SIM_ONLY.get(name, ())
 
 
 def run_access_control(services: Iterable[str], job: str, profile: Profile | None = None) -> AccessControl:
@@ -171,7 +175,7 @@ def run_access_control(services: Iterable[str], job: str, profile: Profile | Non
                                      f"(services.launcher.logins.PUBLISHES knows {', '.join(sorted(PUBLISHES))}); "
                                      "give the profile fixed logins and an access list ([bus.auth], "
                                      "[bus.access_control]) instead")
-        unused = () if _in_use(name, profile) else _SIM_ONLY.get(name, ())
+        unused = _unused(name, profile)
         own = (tuple(f"{{prefix}}/{t.suffix}" for t in PUBLISHES[name] if t not in unused)
                + ROS_PUBLISHES.get(name, ()))
         users[name] = UserPermissions(publish=own, subscribe=everything)

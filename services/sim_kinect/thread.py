@@ -40,8 +40,7 @@ class KinectThread:
     def __init__(self, config: KinectConfig, node: Any) -> None:
         self.sim = make_kinect_sim(config)
         self.rate_hz = config.rate_hz
-        self._skeleton = node.publisher(topics.SKELETON)
-        self._depth = node.publisher(topics.DEPTH)
+        self._declare_outputs(node)
         self._truth = node.publisher(topics.KINECT_TRUTH)
         self._truth_gate = TruthGate()
         self._stop = threading.Event()
@@ -52,6 +51,16 @@ class KinectThread:
         self._errors = RateLimitedLog(log, 5.0)
         self.frames = 0
         self._thread = threading.Thread(target=self._run, name="kinect", daemon=True)
+
+    def _declare_outputs(self, node: Any) -> None:
+        """Declare the camera's outputs (a subclass sends them elsewhere: the fake OpenNI)."""
+        self._skeleton = node.publisher(topics.SKELETON)
+        self._depth = node.publisher(topics.DEPTH)
+
+    def _publish(self, frame: Any) -> None:
+        """Send one rendered frame's skeleton and depth (`robot_sim.kinect.KinectFrame`)."""
+        self._skeleton.put(**frame.skeleton_fields)
+        self._depth.put(**frame.depth_fields)
 
     def update_arm(self, q_rad: np.ndarray, hand_m: np.ndarray | None = None,
                    object_m: np.ndarray | None = None) -> None:
@@ -78,8 +87,7 @@ class KinectThread:
             if q is not None:
                 try:
                     frame = self.sim.step(time.monotonic() - t0, q, object_position_m=obj, right_hand_m=hand)
-                    self._skeleton.put(**frame.skeleton_fields)
-                    self._depth.put(**frame.depth_fields)
+                    self._publish(frame)
                     truth_now = self._truth_gate.due(frame, time.monotonic())
                     if truth_now is not None:
                         self._truth.put(**truth_now)

@@ -2,6 +2,7 @@
 
     handover-tracker [--profile sim] [--replay FILE [--replay-loop]]   run the service
     handover-tracker offline FILE                                      run the pipeline on a file, print a summary
+    handover-tracker calibrate-kinect PAIRS.csv -o FILE                the ROS 1 camera's pose from point pairs
 """
 
 from __future__ import annotations
@@ -30,6 +31,10 @@ def run(args: argparse.Namespace) -> int:
         return run_node(profile, config, args.replay, args.replay_loop)
     if command == "offline":
         return _offline(args, config_from_args(args, profile_config(args)))
+    if command == "calibrate-kinect":
+        from services.tracker.ros1.cli_calibrate import calibrate
+
+        return calibrate(args.pairs, args.output, args.frame, args.force)
     raise TrackerConfigError(f"unknown command {command!r}")
 
 
@@ -95,10 +100,17 @@ def build_parser() -> argparse.ArgumentParser:
                         help="publish from a replay file instead of the bus inputs")
     parser.add_argument("--replay-loop", action="store_true", help="start the replay file over when it ends")
     add_config_flags(parser)
-    sub = parser.add_subparsers(dest="command", metavar="{run,offline}")
+    sub = parser.add_subparsers(dest="command", metavar="{run,offline,calibrate-kinect}")
     sub.add_parser("run", help="run the service (the default)")
     off = sub.add_parser("offline", help="run the pipeline over a replay file without the bus and print a summary")
     off.add_argument("file", type=Path, help="replay file")
+    cal = sub.add_parser("calibrate-kinect", help="the ROS 1 camera's pose in base from points measured in both "
+                                                  "frames (docs/kinect_ros1.md#calibration)")
+    cal.add_argument("pairs", type=Path, help="CSV: camera_x,camera_y,camera_z,base_x,base_y,base_z (m), one "
+                                              "point a line, a header line first")
+    cal.add_argument("-o", "--output", type=Path, required=True, help="the calibration file to write")
+    cal.add_argument("--frame", default="openni_depth_frame", help="the camera frame the points were read in")
+    cal.add_argument("--force", action="store_true", help="overwrite an existing calibration file")
     return parser
 
 

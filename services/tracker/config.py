@@ -12,6 +12,7 @@ import msgspec
 from handover_model import scene
 from services.sim_kinect.config import KinectConfig
 from services.tracker.errors import TrackerConfigError
+from services.tracker.ros1.config import Ros1KinectConfig
 
 
 class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):
@@ -57,13 +58,17 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
         rate_hz: the node's loop rate with ``sensor = "bus"`` (with ``"sim"`` the loop runs
             at the simulated Kinect's frame rate).
         sensor: where skeleton and depth come from: ``bus`` (`perception/skeleton` and
-            `perception/depth`: a Kinect driver, the ROS 1 path or the stand-alone simulated
-            Kinect service) or ``sim`` (the simulated Kinect rendered in the tracker's own
-            process from `robot/joint_state` and `sim/truth`; `services.tracker.sources`).
+            `perception/depth`: a Kinect driver or the stand-alone simulated Kinect service),
+            ``sim`` (the simulated Kinect rendered in the tracker's own process from
+            `robot/joint_state` and `sim/truth`; `services.tracker.sources`) or ``ros1``
+            (openni_tracker's ``/tf`` and a depth image as ROS 1 bytes through the Zenoh ROS 1
+            bridge, `ros1`; `services.tracker.ros1.source`).
         sim_kinect: the simulated Kinect of ``sensor = "sim"`` (the fields of
             `services.sim_kinect.config.KinectConfig`: rate, receiver's body, scene, seed).
-        publish_depth: with ``sensor = "sim"``, also publish `perception/depth` (a recorder
-            with ``depth_every`` ≥ 1 records it; nothing else reads it).
+        publish_depth: with ``sensor = "sim"`` or ``"ros1"``, also publish `perception/depth`
+            (a recorder with ``depth_every`` ≥ 1 records it; nothing else reads it).
+        ros1: the ROS 1 Kinect of ``sensor = "ros1"`` (`Ros1KinectConfig`: topics, key
+            mapping, the calibration file, the receiver's choice).
     """
 
     lag_correction: bool = True
@@ -93,9 +98,10 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
     object_min_pixels: int = 20
     floor_z_m: float = -scene.BASE_HEIGHT_ABOVE_FLOOR_M
     rate_hz: float = 60.0
-    sensor: Literal["bus", "sim"] = "bus"
+    sensor: Literal["bus", "sim", "ros1"] = "bus"
     sim_kinect: KinectConfig = msgspec.field(default_factory=KinectConfig)
     publish_depth: bool = False
+    ros1: Ros1KinectConfig = msgspec.field(default_factory=Ros1KinectConfig)
 
     def __post_init__(self) -> None:
         checks = [
@@ -130,6 +136,9 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
         for ok, message in checks:
             if not ok:
                 raise TrackerConfigError(f"invalid tracker config: {message}")
+        if self.sensor == "ros1" and not self.ros1.calibration_file:
+            raise TrackerConfigError("invalid tracker config: sensor = \"ros1\" needs ros1.calibration_file, the "
+                                     "camera's pose in base (docs/kinect_ros1.md#calibration)")
         if self.sim_kinect.hand_target_base_m and len(self.sim_kinect.hand_target_base_m) != 3:
             raise TrackerConfigError("invalid tracker config: sim_kinect.hand_target_base_m needs 3 values (x, y, z)")
 

@@ -235,6 +235,12 @@ class TrackerPipeline:
             return 0.0
         return vector_norm(raw - p0) / (now - t0)
 
+    def new_person(self) -> None:
+        """Another person became the receiver (a camera that sees several): forget the
+        previous one's torso, hand speed, proximity hold and body dimensions."""
+        self._lose()
+        self.body.reset()
+
     def _lose(self) -> None:
         self._raw_history.clear()
         self._torso_history.clear()

@@ -19,3 +19,8 @@ class ReplayFileError(TrackerError):
     `handover-study record`)."""
 
     bad_input = True
+
+
+class CalibrationError(TrackerConfigError):
+    """The camera's calibration file is missing or invalid (the message names the file and
+    the key; docs/kinect_ros1.md#calibration says how to measure it)."""

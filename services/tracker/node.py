@@ -27,6 +27,7 @@ from services.tracker.core import HumanEstimate, TrackerPipeline, skeleton_frame
 from services.tracker.objects import ObjectDetection
 from services.tracker.pointcloud import depth_frame_from_message
 from services.tracker.process import tune_process
+from services.tracker.ros1.calibration import CameraPose, load_calibration
 from services.tracker.sources import BusInputs, ReplayInputs, SimKinectInputs
 
 log = logging.getLogger("tracker")
@@ -89,22 +90,46 @@ class _Feeder:
         except ValueError as exc:  # e.g. a zero-norm or inconsistent camera pose
             self.warnings.warning("depth", f"depth image ignored: {exc}")
 
+    def new_person(self) -> None:
+        """The receiver is another person from now on (`TrackerPipeline.new_person`)."""
+        self.pipe.new_person()
+
     def skeleton(self, msg, t_s: float) -> None:
         self.human.append(self.pipe.on_skeleton(skeleton_frame_from_message(msg, t_s)))
 
 
-def _inputs(node: ServiceNode, config: TrackerConfig, replay_path: Path | None, replay_loop: bool):
-    """The tick's input source: a replay file, the in-process simulated Kinect or the bus."""
+def ros1_calibration(profile: Profile, config: TrackerConfig) -> CameraPose:
+    """The ROS 1 camera's calibration (``ros1.calibration_file``, relative to the profile's folder).
+
+    Raises:
+        CalibrationError: the file is missing or invalid (one line).
+    """
+    path = Path(config.ros1.calibration_file).expanduser()
+    if not path.is_absolute():
+        path = (profile.path.parent if profile.path is not None else Path.cwd()) / path
+    return load_calibration(path, config.ros1.skeleton_frame_id)
+
+
+def _inputs(node: ServiceNode, config: TrackerConfig, replay_path: Path | None, replay_loop: bool,
+            pose: CameraPose | None):
+    """The tick's input source: a replay file, the in-process simulated Kinect, the ROS 1
+    Kinect or the bus."""
     if replay_path is not None:
         return ReplayInputs(replay_path, replay_loop, node.clock.now_s())
     if config.sensor == "sim":
         return SimKinectInputs(config.sim_kinect, node, config.publish_depth)
+    if config.sensor == "ros1" and pose is not None:
+        from services.tracker.ros1.source import Ros1KinectInputs
+
+        return Ros1KinectInputs(config.ros1, pose, node, config.publish_depth)
     return BusInputs(node)
 
 
 def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None = None,
              replay_loop: bool = False) -> int:
     """Run the tracker until shutdown (or the end of the replay file)."""
+    # A missing or invalid calibration stops the start here, before the node joins the bus.
+    pose = ros1_calibration(profile, config) if config.sensor == "ros1" and replay_path is None else None
     log.info("process: %s", tune_process())
     arm = ArmGeometry()
     pipe = TrackerPipeline(config, arm)
@@ -112,7 +137,7 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
     with ServiceNode("tracker", profile) as node:
         human_pub = node.publisher(T.HUMAN)
         object_pub = node.publisher(T.OBJECT)
-        inputs = _inputs(node, config, replay_path, replay_loop)
+        inputs = _inputs(node, config, replay_path, replay_loop, pose)
         rate_hz = config.sim_kinect.rate_hz if isinstance(inputs, SimKinectInputs) else config.rate_hz
         log.info("tracker inputs: %s", "replay" if replay_path is not None else config.sensor,
                  extra=kv(rate_hz=rate_hz))
@@ -140,4 +165,7 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
         if isinstance(inputs, SimKinectInputs):
             log.info("simulated Kinect stopped", extra=kv(frames=inputs.frames, skipped=inputs.skipped,
                                                           failed=inputs.failed))
+        elif hasattr(inputs, "stats"):  # the ROS 1 Kinect
+            inputs.close()
+            log.info("ROS 1 Kinect stopped", extra=kv(**inputs.stats()))
     return 0

@@ -9,7 +9,12 @@ outside the stack, on the bus:
 - the path really is the hardware one: the bridge's joint states say ``backend=baxter``, the
   arm and gripper commands cross the bus as ROS 1 ``JointCommand`` / ``EndEffectorCommand``
   bytes on zenoh-bridge-ros1's keys (decoded here), the gripper closed and then opened;
-- the fake plays the Kinect driver: the skeleton comes from ``fake_baxter``;
+- the fake plays the Kinect under ROS 1 (fake OpenNI): openni_tracker's ``/tf`` joint frames
+  (the receiver, user 1, and a bystander, user 2) and the depth image cross the bus as ROS 1
+  ``TFMessage`` / ``Image`` bytes in the camera's frame (decoded here; not the base frame: the
+  camera's pose is not the identity); the tracker (``sensor = "ros1"``) turns them into `base`
+  with the profile's calibration, publishes the skeleton of the receiver (user 1) and tracks
+  the receiver's torso within 0.1 m of the rendered body's;
 - sim truth: the object left the table, was in the gripper, ends in the receiver's hand
   (within a few cm of the true hand) and was never dropped.
 """
@@ -20,6 +25,7 @@ import subprocess
 import sys
 import threading
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import psutil
@@ -30,6 +36,8 @@ from services.bridge.baxter.keys import topic_key
 from services.bridge.baxter.messages import EndEffectorCommand, JointCommand
 from services.bridge.baxter.core import parse_gripper_args
 from services.launcher.logins import OBSERVER, login_profile
+from services.tracker.ros1.calibration import load_calibration
+from services.tracker.ros1.messages import Image, TFMessage
 from services.runtime import ServiceNode
 from services.runtime.testing import free_tcp_port, loopback_profile
 from tests.faults.matrix import stopped_before_the_fault
@@ -48,11 +56,14 @@ IN_HAND_M = 0.06
 
 
 class _RosTap:
-    """Decodes the Baxter backend's ROS 1 command bytes seen on the bus (Zenoh thread)."""
+    """Decodes the Baxter backend's ROS 1 command bytes and the fake OpenNI camera's ``/tf`` and
+    depth image bytes seen on the bus (Zenoh thread)."""
 
     def __init__(self, session) -> None:
         self.joint_commands: list[JointCommand] = []
         self.gripper_commands: list[EndEffectorCommand] = []
+        self.tf: list[TFMessage] = []
+        self.images: list[Image] = []
         self.bad: list[str] = []
         self._lock = threading.Lock()
         self._subs = [
@@ -61,6 +72,8 @@ class _RosTap:
             session.declare_subscriber(topic_key("/robot/end_effector/right_gripper/command",
                                                  EndEffectorCommand.TYPE),
                                        self._on(EndEffectorCommand, self.gripper_commands)),
+            session.declare_subscriber(topic_key("/tf", TFMessage.TYPE), self._on(TFMessage, self.tf)),
+            session.declare_subscriber(topic_key("/camera/depth/image_raw", Image.TYPE), self._on(Image, self.images)),
         ]
 
     def _on(self, cls, into):
@@ -105,6 +118,8 @@ class _BaxterRun:
     joint_states: list
     skeleton_sources: set
     kinect_truths: list
+    skeletons: list
+    humans: list
     tap: _RosTap
     #: What `stopped_before_the_fault` reads besides the exit line: no faults in this test.
     injections: tuple = ()
@@ -131,6 +146,7 @@ def _run_stack(tmp_path, run_id: str) -> _BaxterRun:
         states = node.subscribe(topics.JOINT_STATE, queue_size=100_000)
         skeletons = node.subscribe(topics.SKELETON, queue_size=10_000)
         kinect_truth = node.subscribe(topics.KINECT_TRUTH, queue_size=10_000)
+        humans = node.subscribe(topics.HUMAN, queue_size=10_000)
         tap = _RosTap(node.session)
         try:
             out, _ = proc.communicate(timeout=RUN_TIMEOUT_S)
@@ -138,9 +154,11 @@ def _run_stack(tmp_path, run_id: str) -> _BaxterRun:
             _kill_tree(proc)
             out, _ = proc.communicate()
             pytest.fail(f"handover-up did not finish in {RUN_TIMEOUT_S:.0f} s:\n{out[-6000:]}")
+        skeleton_msgs = [rx.msg for rx in skeletons.drain()]
         return _BaxterRun(proc.returncode, out, [rx.msg for rx in truth.drain()],
-                          [rx.msg for rx in states.drain()], {rx.msg.source for rx in skeletons.drain()},
-                          [rx.msg for rx in kinect_truth.drain()], tap)
+                          [rx.msg for rx in states.drain()], {m.source for m in skeleton_msgs},
+                          [rx.msg for rx in kinect_truth.drain()], skeleton_msgs,
+                          [rx.msg for rx in humans.drain()], tap)
     finally:
         if tap is not None:
             tap.close()
@@ -162,7 +180,7 @@ def test_full_handover_through_the_baxter_backend_and_the_fake_robot(tmp_path):
         run = _run_stack(tmp_path, "baxter-again")
     out, tap = run.out, run.tap
     truths, joint_states = run.truths, run.joint_states
-    skeleton_sources, kinect_truths = run.skeleton_sources, run.kinect_truths
+    kinect_truths = run.kinect_truths
 
     # On failure: the launcher's lines and those of the robot side (not the recorder's chatter).
     launcher = "\n".join(line for line in out.splitlines()
@@ -187,8 +205,8 @@ def test_full_handover_through_the_baxter_backend_and_the_fake_robot(tmp_path):
     assert any(position > 50 and force == 0 for position, force in grips[closed[0]:]), \
         f"the gripper never opened after closing: {grips}"
 
-    # The fake stands in for the Kinect driver.
-    assert skeleton_sources == {"fake_baxter"}
+    # The fake stands in for the Kinect under ROS 1; the tracker reads it through that path.
+    _check_the_ros1_kinect_path(run)
 
     # Sim truth, independently of the launcher's report.
     assert len(truths) > 500
@@ -209,3 +227,28 @@ def test_full_handover_through_the_baxter_backend_and_the_fake_robot(tmp_path):
     # The receiver's hand in the scene and the body the Kinect rendered are the same hand.
     assert kinect_truths and {m.source for m in kinect_truths} == {"fake_baxter"}
     assert np.linalg.norm(np.array(kinect_truths[-1].hand_position_m) - hand) < 0.05
+
+
+def _check_the_ros1_kinect_path(run: _BaxterRun) -> None:
+    """openni_tracker's /tf and the depth image crossed the bus as ROS 1 bytes in the camera's
+    frame; the tracker converted them with the calibration and chose the receiver."""
+    tap = run.tap
+    assert run.skeleton_sources == {"tracker"}
+    joints = [tf for msg in tap.tf for tf in msg.transforms]
+    assert len(joints) > 15 * 2 * 30 * 5, len(joints)  # 2 users, 30 Hz, a run of more than 5 s
+    assert {tf.header.frame_id for tf in joints} == {"openni_depth_frame"}
+    assert {tf.child_frame_id.rsplit("_", 1)[1] for tf in joints} == {"1", "2"}
+    assert len(tap.images) > 30 * 5 and {(m.encoding, m.width, m.height) for m in tap.images} == {("16UC1", 320, 240)}
+    tracked = [m for m in run.skeletons if m.tracked]
+    assert tracked and {m.user_id for m in tracked} == {1}  # the receiver, never the bystander
+    # The torso as sent (camera frame) is far from the true torso; through the profile's
+    # calibration it lands on it (within the simulated tracker's joint noise).
+    pose = load_calibration(Path(__file__).resolve().parents[2] / "deploy" / "kinect_calibration_fake.toml")
+    true_torso = np.array(run.kinect_truths[-1].torso_position_m)
+    sent = np.array([[t.x, t.y, t.z] for tf in joints if tf.child_frame_id == "torso_1"
+                     for t in [tf.transform.translation]])
+    assert np.median(np.linalg.norm(sent - true_torso, axis=1)) > 0.3  # read as base: 0.4 m off
+    assert np.median(np.linalg.norm(pose.to_base(sent) - true_torso, axis=1)) < 0.1
+    human = [np.array(m.torso_position_m) for m in run.humans if m.tracked]
+    assert len(human) > 30 * 5
+    assert np.median(np.linalg.norm(np.array(human) - true_torso, axis=1)) < 0.1

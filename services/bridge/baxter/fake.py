@@ -58,6 +58,7 @@ from services.bridge.backend import Backend, make_backend
 from services.bridge.baxter.config import BaxterConfig, parse_baxter_config
 from services.bridge.baxter.core import grip_force_from_percent, parse_gripper_args
 from services.bridge.baxter.errors import BaxterConfigError
+from services.bridge.baxter.fake_openni import FakeOpenNIConfig, camera_thread, fake_ros1_config
 from services.bridge.baxter.fake_messages import (
     arm_joint_state,
     gripper_joint_state,
@@ -83,6 +84,7 @@ from services.runtime import Profile, RateLimitedLog, ServiceNode, base_parser, 
 from services.sim_kinect.config import KinectConfig
 from services.sim_kinect.config import parse_config as parse_kinect_config
 from services.sim_kinect.errors import KinectConfigError
+from services.tracker.ros1.config import Ros1KinectConfig
 
 log = logging.getLogger(__name__)
 
@@ -104,6 +106,8 @@ class FakeBaxterConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
         kinect: the simulated Kinect standing in for the Kinect driver (as
             ``[services.kinect.config]``; off by default; its height and posture are also the
             scene receiver's body).
+        openni: send the Kinect as openni_tracker's ``/tf`` and a depth image, ROS 1 bytes
+            (`services.bridge.baxter.fake_openni`), instead of `perception/*` on the bus.
         publish_truth: publish ``sim/truth`` on the bus.
     """
 
@@ -116,6 +120,7 @@ class FakeBaxterConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown
     object_mass_kg: Annotated[float, Meta(ge=0.0, le=5.0)] = 0.2
     contact: ContactConfig = ContactConfig()
     kinect: KinectConfig = KinectConfig(enabled=False)
+    openni: FakeOpenNIConfig = FakeOpenNIConfig()
     publish_truth: bool = True
 
 
@@ -130,7 +135,7 @@ class FakeBaxter:
     """The fake robot's state machine over an open bus node (see module docstring)."""
 
     def __init__(self, node: ServiceNode, config: FakeBaxterConfig, baxter: BaxterConfig,
-                 physics: Backend | None = None) -> None:
+                 physics: Backend | None = None, ros1: Ros1KinectConfig | None = None) -> None:
         self.node = node
         self.config = config
         self.baxter = baxter
@@ -175,11 +180,8 @@ class FakeBaxter:
                       for name, cls in handlers.items()]
         self._truth_pub = node.publisher(topics.SIM_TRUTH) if config.publish_truth else None
         self._supervisor = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16) if self._new_episode else None
-        self.kinect = None
-        if config.kinect.enabled:
-            from services.sim_kinect.thread import KinectThread
-
-            self.kinect = KinectThread(config.kinect, node)
+        self.kinect = camera_thread(config.kinect, config.openni, node, ros1)
+        if self.kinect is not None:
             self._update_kinect()
             self.kinect.start()
 
@@ -325,12 +327,13 @@ def parse_fake_config(table: dict[str, Any]) -> FakeBaxterConfig:
     return config
 
 
-def run_fake(profile: Profile, config: FakeBaxterConfig, baxter: BaxterConfig) -> int:
+def run_fake(profile: Profile, config: FakeBaxterConfig, baxter: BaxterConfig,
+             ros1: Ros1KinectConfig | None = None) -> int:
     # Build the physics (URDF, scene) before joining the bus: once the liveliness token is up,
     # the supervisor expects a heartbeat every 50 ms.
     physics = make_physics(config)
     with ServiceNode(SERVICE_NAME, profile) as node:
-        fake = FakeBaxter(node, config, baxter, physics)
+        fake = FakeBaxter(node, config, baxter, physics, ros1)
         log.info("fake baxter running", extra=kv(enabled=fake.enabled, rate_hz=config.rate_hz,
                                                  joint_states=fake.keys["joint_states"]))
         last_s = time.monotonic()
@@ -366,8 +369,10 @@ def _run(args: argparse.Namespace) -> int:
         kinect["posture"] = args.posture
     if kinect:
         table["kinect"] = kinect
+    if args.openni:
+        table["openni"] = {**table.get("openni", {}), "enabled": True}
     baxter = parse_baxter_config(profile.service_config("bridge").get("baxter", {}))
-    return run_fake(profile, parse_fake_config(table), baxter)
+    return run_fake(profile, parse_fake_config(table), baxter, fake_ros1_config(profile))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -378,6 +383,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.set_defaults(service_name=SERVICE_NAME)
     parser.add_argument("--disabled", action="store_true", help="start with the robot disabled")
     parser.add_argument("--refuse-enable", action="store_true", help="ignore enable requests")
+    parser.add_argument("--openni", action="store_true", help="send the Kinect as openni_tracker /tf and a depth "
+                        "image in ROS 1 bytes (the tracker's sensor = \"ros1\"), not on perception/*")
     scene = parser.add_argument_group("the simulated handover scene (contact.scenario = \"handover\")")
     scene.add_argument("--receiver", choices=["taking", "dropping", "bumping", "hesitating", "absent"],
                        default=None, help="the receiver's behaviour (default: the profile's)")

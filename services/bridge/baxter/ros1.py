@@ -6,9 +6,10 @@ baxter_core_msgs, this project's handover_msgs) are registered into it by `messa
 rosbags parses the definitions, computes the genmsg MD5 sums and full definitions, and
 writes and reads the ROS 1 wire format; no ROS installation is required.
 
-The message classes are this package's frozen dataclasses (tuples for arrays, `Time` for
-``time``), converted field by field to and from rosbags' generated classes (numpy arrays,
-``builtin_interfaces/msg/Time``). ROS names are ``pkg/Type``; the store's are ``pkg/msg/Type``.
+The message classes are this package's frozen dataclasses (tuples for arrays, `bytes` for
+``uint8[]``/``char[]`` arrays such as an image's data, `Time` for ``time``), converted field by
+field to and from rosbags' generated classes (numpy arrays, ``builtin_interfaces/msg/Time``).
+ROS names are ``pkg/Type``; the store's are ``pkg/msg/Type``.
 
 Decoding never trusts the input: any bytes that are not exactly one message of the type
 raise `Ros1DecodeError`, one line naming the type; a value that cannot be written raises
@@ -31,6 +32,8 @@ from services.bridge.baxter.errors import BaxterError
 
 STORE = get_typestore(Stores.ROS1_NOETIC)
 _TIME = "builtin_interfaces/msg/Time"
+#: Array element types carried as `bytes` (ROS 1 ``char`` is an unsigned byte too).
+_BYTE_TYPES = ("uint8", "char")
 
 
 class Ros1Error(BaxterError):
@@ -92,8 +95,10 @@ def _to_store(value: Any, desc: Any) -> Any:
         msgdef = STORE.get_msgdef(arg)
         return msgdef.cls(*(_to_store(getattr(value, name), d) for name, d in msgdef.fields))
     element = arg[0]
+    if element[0] == Nodetype.BASE and element[1][0] in _BYTE_TYPES:
+        return np.frombuffer(bytes(value), dtype=np.uint8)
     if element[0] == Nodetype.BASE and element[1][0] != "string":
-        return np.asarray(value, dtype={"char": "uint8"}.get(element[1][0], element[1][0]))
+        return np.asarray(value, dtype=element[1][0])
     return [_to_store(item, element) for item in value]
 
 
@@ -107,6 +112,8 @@ def _from_store(value: Any, desc: Any) -> Any:
         return _CLASSES[arg](*(_from_store(getattr(value, name), d)
                                for name, d in STORE.get_msgdef(arg).fields))
     if isinstance(value, np.ndarray):
+        if value.dtype == np.uint8 and arg[0][0] == Nodetype.BASE and arg[0][1][0] in _BYTE_TYPES:
+            return value.tobytes()  # one copy: an image's data stays a buffer, not a tuple of ints
         return tuple(value.tolist())
     return tuple(_from_store(item, arg[0]) for item in value)
 

@@ -87,7 +87,12 @@ def test_the_keys_follow_each_services_set_up():
     sim = grants("sim", ["tracker", "bridge"])
     assert "handover/v1/perception/skeleton" in sim["tracker_publish"]
     assert "handover/v1/sim/truth" in sim["bridge_publish"]
+    bus_fed = grants("multihost", ["tracker"])  # sensor = "bus": a Kinect driver publishes the skeleton
+    assert "handover/v1/perception/skeleton" not in bus_fed["tracker_publish"]
     fake = grants("baxter_fake", ["tracker", "bridge", "fake_baxter"])
-    assert "handover/v1/perception/skeleton" not in fake["tracker_publish"]
     assert "handover/v1/sim/truth" not in fake["bridge_publish"]
     assert "handover/v1/sim/truth" in fake["fake_baxter_publish"]
+    # sensor = "ros1": the tracker publishes the skeleton and depth it converts, no Kinect truth.
+    assert {"handover/v1/perception/skeleton", "handover/v1/perception/depth"} <= set(fake["tracker_publish"])
+    assert "handover/v1/sim/kinect_truth" not in fake["tracker_publish"]
+    assert {"**/tf", "**/camera/depth/image_raw", "**/camera/depth/camera_info"} <= set(fake["fake_baxter_publish"])
