@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from services.studies.evaluation.summary import height_band
+from services.studies.evaluation.summary import group_order, height_band
 
 #: Outcome colours, one per outcome the records can hold.
 _COLOURS = {"released": "#2a9d8f", "timeout": "#e9c46a", "aborted": "#f4a261", "failed": "#e76f51",
@@ -18,7 +18,7 @@ _COLOURS = {"released": "#2a9d8f", "timeout": "#e9c46a", "aborted": "#f4a261", "
 
 
 def _outcome_bars(ax: Any, records: Sequence[dict[str, Any]], key: Callable[[dict[str, Any]], str], title: str) -> None:
-    groups = sorted({key(r) for r in records})
+    groups = sorted({key(r) for r in records}, key=group_order)
     counts = {g: Counter(str(r.get("outcome")) for r in records if key(r) == g) for g in groups}
     bottom = np.zeros(len(groups))
     for outcome in [o for o in _COLOURS if any(c[o] for c in counts.values())]:

@@ -59,6 +59,14 @@ def height_band(height_m: float) -> str:
     raise AssertionError("unreachable")
 
 
+def group_order(name: str) -> tuple[float, str]:
+    """Sort key of a group name: height bands by their lower edge, other names alphabetically."""
+    for i, low in enumerate(HEIGHT_BANDS_M):
+        if name == height_band(low + 1e-9):
+            return (float(i), name)
+    return (0.0, name)
+
+
 def _rate(records: Sequence[dict[str, Any]], test: Callable[[dict[str, Any]], bool]) -> Rate:
     return wilson(sum(1 for r in records if test(r)), len(records))
 
@@ -70,7 +78,7 @@ def _group_rates(records: Sequence[dict[str, Any]], key: Callable[[dict[str, Any
     return {name: {"success": _rate(rs, lambda r: bool(r.get("success"))),
                    "as_expected": _rate(rs, as_expected),
                    "dropped": _rate(rs, lambda r: bool(r.get("dropped")))}
-            for name, rs in sorted(groups.items())}
+            for name, rs in sorted(groups.items(), key=lambda item: group_order(item[0]))}
 
 
 def _criteria(records: Sequence[dict[str, Any]]) -> dict[str, Rate]:
