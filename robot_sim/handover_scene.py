@@ -42,7 +42,7 @@ from typing import Any, Literal
 import numpy as np
 
 from handover_model import scene
-from robot_sim.contact.config import ContactSimError, ObjectParams, SimConfig
+from robot_sim.contact.config import ContactSimError, ObjectParams, SensorParams, SimConfig
 from robot_sim.contact.plant import ContactPlant
 from robot_sim.contact.receiver import absent, behaviour_by_name, min_jerk
 from robot_sim.kinect.receiver import BodySize, ReceiverBody
@@ -88,6 +88,8 @@ class SceneParams:
             point beyond the straight arm is reached by leaning the upper body, at most 0.04·H,
             as the planner assumes: `robot_sim.kinect.receiver.ReceiverBody.joints`.)
         lift_clearance_m: the object counts as lifted this far above its table position, m.
+        ft_noise_std_n, ft_bias_std_n: the wrist F/T sensor's white noise per axis and the
+            spread of its per-episode bias, N (`robot_sim.contact.config.SensorParams`).
     """
 
     behaviour: str = "taking"
@@ -108,6 +110,8 @@ class SceneParams:
     reach_duration_s: float = 1.0
     contact_distance_m: float = 0.06
     lift_clearance_m: float = 0.05
+    ft_noise_std_n: float = SensorParams.ft_noise_std_n
+    ft_bias_std_n: float = SensorParams.ft_bias_std_n
 
 
 @dataclass(frozen=True)
@@ -151,7 +155,9 @@ class HandoverScene:
         self.params = params
         try:
             self._config = SimConfig(obj=ObjectParams(mass_kg=params.object_mass_kg, mu_static=params.mu_static,
-                                                      mu_kinetic=params.mu_kinetic))
+                                                      mu_kinetic=params.mu_kinetic),
+                                     sensors=SensorParams(ft_noise_std_n=params.ft_noise_std_n,
+                                                          ft_bias_std_n=params.ft_bias_std_n))
             # Build the behaviour once now so that a bad configuration fails at start-up.
             self._behaviour_at(10.0)
         except TypeError as exc:

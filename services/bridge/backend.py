@@ -225,7 +225,9 @@ def make_backend(name: str, contact: Any = None, **kwargs: Any) -> Backend:
             params = SceneParams(behaviour=contact.behaviour, receiver=dict(contact.receiver),
                                  pull_angle_deg=contact.pull_angle_deg, object_mass_kg=contact.object_mass_kg,
                                  mu_static=contact.mu_static, mu_kinetic=contact.mu_kinetic, seed=contact.seed,
-                                 height_m=contact.height_m, posture=contact.posture)
+                                 height_m=contact.height_m, posture=contact.posture,
+                                 reach_duration_s=contact.hand_reach_duration_s,
+                                 ft_noise_std_n=contact.ft_noise_std_n, ft_bias_std_n=contact.ft_bias_std_n)
             return HandoverSimBackend(params, **_sim_kwargs(kwargs))
         if contact is not None and contact.enabled:
             from services.bridge.contact_backend import ContactSimBackend

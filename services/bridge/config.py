@@ -37,6 +37,10 @@ class ContactConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
             its hand rests), m. The simulated Kinect service renders the same receiver: give
             it the same values (`[services.kinect.config]`; the launcher passes
             ``--posture``/``--seed`` to both).
+        hand_reach_duration_s: how long the receiver's hand takes to reach the presented
+            object in the ``handover`` scene (minimum-jerk), s.
+        ft_noise_std_n: white noise of the wrist F/T sensor per axis, N.
+        ft_bias_std_n: the F/T sensor's per-episode bias per axis is drawn from N(0, σ), N.
     """
 
     enabled: bool = False
@@ -51,6 +55,9 @@ class ContactConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
     receiver: dict[str, float] = {}
     height_m: Annotated[float, Meta(ge=1.2, le=2.2)] = 1.75
     posture: Literal["standing", "sitting"] = "standing"
+    hand_reach_duration_s: Annotated[float, Meta(ge=0.2, le=5.0)] = 1.0
+    ft_noise_std_n: Annotated[float, Meta(ge=0.0, le=5.0)] = 0.03
+    ft_bias_std_n: Annotated[float, Meta(ge=0.0, le=5.0)] = 0.05
 
 
 class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True):

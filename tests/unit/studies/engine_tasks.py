@@ -1,0 +1,53 @@
+"""Task functions of the engine's tests (module level, so that worker processes import them)."""
+
+from __future__ import annotations
+
+import os
+import time
+from pathlib import Path
+
+import psutil
+
+
+def square_after(argument: tuple[int, float]) -> int:
+    """x², after sleeping `delay_s` (so that tasks finish out of order)."""
+    x, delay_s = argument
+    time.sleep(delay_s)
+    return x * x
+
+
+def counted(argument: tuple[int, str]) -> dict:
+    """A result derived from x; appends x to the log file (one line per call, any process);
+    raises while a file ``fail-<x>`` exists beside the log."""
+    x, log_path = argument
+    log = Path(log_path)
+    with log.open("a") as fh:
+        fh.write(f"{x}\n")
+    if (log.parent / f"fail-{x}").exists():
+        raise ValueError(f"told to fail on {x}")
+    return {"x": x, "cube": x ** 3, "text": f"r{x}"}
+
+
+def fails_on_three(x: int) -> int:
+    """Raises a KeyError on 3, else returns x."""
+    if x == 3:
+        raise KeyError("no such key for three")
+    return x
+
+
+def whereabouts(main_pid: int) -> dict:
+    """This worker's pid, its parent's, and the TCP addresses listening in this process, its
+    parent (the nanny) and the main process (the scheduler)."""
+    me = psutil.Process()
+    procs = [me, psutil.Process(os.getppid()), psutil.Process(main_pid)]
+    listening = sorted({c.laddr.ip for p in procs for c in p.net_connections(kind="inet")
+                        if c.status == psutil.CONN_LISTEN})
+    return {"pid": me.pid, "parent": os.getppid(), "listening": listening}
+
+
+def slow_pid(argument: tuple[int, str]) -> int:
+    """Writes this worker's pid to the folder, sleeps 0.4 s, returns x."""
+    x, folder = argument
+    (Path(folder) / f"pid-{os.getpid()}").write_text("")
+    time.sleep(0.4)
+    return x
