@@ -12,7 +12,6 @@ there); a joint state without Baxter's seven right-arm joints is skipped with a 
 from __future__ import annotations
 
 import logging
-import time
 
 from bus_schema import topics
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
@@ -68,8 +67,8 @@ def run_kinect(profile: Profile, config: KinectConfig) -> int:
                                     None if latest_truth is None else latest_truth.msg.object_position_m)
                 try:
                     if t0 is None:
-                        t0 = time.monotonic()
-                    frame = sim.step(time.monotonic() - t0, q, object_position_m=scene.object_position_m,
+                        t0 = node.clock.now_s()
+                    frame = sim.step(node.clock.now_s() - t0, q, object_position_m=scene.object_position_m,
                                      right_hand_m=scene.right_hand_m)
                 except Exception as exc:  # noqa: BLE001 - a bad frame must not kill the camera
                     failed += 1
@@ -77,7 +76,7 @@ def run_kinect(profile: Profile, config: KinectConfig) -> int:
                     continue
                 skeleton_pub.put(**frame.skeleton_fields)
                 depth_pub.put(**frame.depth_fields)
-                truth_now = truth_gate.due(frame, time.monotonic())
+                truth_now = truth_gate.due(frame, node.clock.now_s())
                 if truth_now is not None:
                     truth_pub.put(**truth_now)
                 frames += 1

@@ -74,6 +74,9 @@ def _add_run(sub: Any) -> None:
                         "shared folder for --out)")
     p.add_argument("--timeout-s", type=_timeout, default=240.0,
                    help="an episode's stack is stopped after this long")
+    p.add_argument("--clock", choices=["sim", "wall"], default=None,
+                   help="sim (default for a new run): each episode on the simulation's clock, as fast as the "
+                        "machine allows and the same episode again for the same seed (replays too); wall: real time")
     p.add_argument("--resume", action="store_true", help="continue the run in --out (episodes with a record are kept)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_cmd_run)
@@ -123,7 +126,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     options = RunOptions(out=out, episodes=args.episodes, seed=args.seed, profile=args.profile,
                          workers=args.workers if args.address else (args.workers or DEFAULT_WORKERS),
                          address=args.address, timeout_s=args.timeout_s, resume=args.resume,
-                         show_progress=not args.no_progress)
+                         show_progress=not args.no_progress, clock=args.clock)
     report, headline = run_evaluation(options)
     for line in headline:
         print(line)

@@ -43,7 +43,7 @@ def replay(run_dir: Path, episode: int, timeout_s: float) -> tuple[list[str], Pa
     _path, base = read_base_profile(manifest["profile"])
     folder = run_dir / "replays" / f"e{episode:04d}-{time.strftime('%Y%m%d-%H%M%S')}"
     folder.mkdir(parents=True, exist_ok=True)
-    record = run_and_record(folder, profile, draw, planner_config(base), timeout_s)
+    record = run_and_record(folder, profile, draw, planner_config(base), timeout_s, str(manifest.get("clock", "wall")))
     write_json(folder / "record.json", record)
     original = read_record(run_dir, episode)
     recording = Path(record["recording"])

@@ -38,6 +38,7 @@ class RunOptions:
     timeout_s: float
     resume: bool
     show_progress: bool = True
+    clock: str | None = None
 
 
 def read_manifest(run_dir: Path) -> dict[str, Any]:
@@ -58,9 +59,9 @@ def _manifest(options: RunOptions) -> dict[str, Any]:
     out = options.out
     if options.resume:
         manifest = read_manifest(out)
-        for name in ("seed", "profile"):
+        for name in ("seed", "profile", "clock"):
             given = getattr(options, name)
-            if given is not None and str(given) != str(manifest[name]):
+            if given is not None and str(given) != str(manifest.get(name, "wall")):
                 raise EvaluationError(f"--{name} {given} differs from the resumed run's ({manifest[name]}); drop it "
                                       "or start a new run in another --out", bad_input=True)
         if options.episodes is not None:
@@ -74,7 +75,7 @@ def _manifest(options: RunOptions) -> dict[str, Any]:
         raise EvaluationError("--episodes is required for a new run", bad_input=True)
     path, _table = read_base_profile(options.profile or "sim")
     return {"seed": 0 if options.seed is None else options.seed, "episodes": options.episodes,
-            "profile": str(path.resolve()), "timeout_s": options.timeout_s,
+            "profile": str(path.resolve()), "timeout_s": options.timeout_s, "clock": options.clock or "sim",
             "created": time.strftime("%Y-%m-%d %H:%M:%S"), "wall_s": 0.0}
 
 
@@ -104,7 +105,8 @@ def run_evaluation(options: RunOptions) -> tuple[Path, list[str]]:
     manifest.update(workers=options.workers if options.address is None else f"cluster {options.address}")
     write_json(run_dir / MANIFEST, manifest)
     tasks = [EpisodeTask(str(run_dir.resolve()), k, int(manifest["seed"]), manifest["profile"],
-                         float(manifest.get("timeout_s", options.timeout_s))) for k in range(manifest["episodes"])]
+                         float(manifest.get("timeout_s", options.timeout_s)), str(manifest.get("clock", "wall")))
+             for k in range(manifest["episodes"])]
     t0 = time.monotonic()
     try:
         records = run_tasks(run_episode, tasks, address=options.address, workers=options.workers,

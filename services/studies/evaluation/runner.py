@@ -48,6 +48,8 @@ class EpisodeTask:
         run_seed: the population's seed.
         base_profile: the base profile (path).
         timeout_s: the episode's stack is stopped after this long, s.
+        clock: the stack's clock, ``sim`` (the simulation's: as fast as the machine allows,
+            the same episode for the same seed) or ``wall``.
     """
 
     run_dir: str
@@ -55,6 +57,7 @@ class EpisodeTask:
     run_seed: int
     base_profile: str
     timeout_s: float = 240.0
+    clock: str = "sim"
 
 
 def episode_dir(run_dir: Path, episode: int) -> Path:
@@ -70,12 +73,12 @@ def recording_file(folder: Path, episode: int) -> Path:
     return folder / f"handover-{run_id(episode)}.rrd"
 
 
-def launcher_command(profile: Path, folder: Path, episode: int) -> list[str]:
+def launcher_command(profile: Path, folder: Path, episode: int, clock: str = "sim") -> list[str]:
     """The command line of one episode's stack: the launcher with the episode's profile, a
-    free loopback port, the episode's run id and folder. (The one place it is built: a clock
-    option goes here.)"""
+    free loopback port, the episode's run id and folder, on `clock` (``sim`` or ``wall``)."""
     return [sys.executable, "-m", "services.launcher", "--profile", str(profile), "--port", "auto",
-            "--run-id", run_id(episode), "--recording-dir", str(folder), "--job", "handover", "--episodes", "1"]
+            "--run-id", run_id(episode), "--recording-dir", str(folder), "--job", "handover", "--episodes", "1",
+            "--clock", clock]
 
 
 def _environment() -> dict[str, str]:
@@ -130,11 +133,12 @@ def read_record(run_dir: Path, episode: int) -> dict[str, Any] | None:
 
 
 def run_and_record(folder: Path, profile: Path, draw: EpisodeDraw, planner_config: dict[str, Any],
-                   timeout_s: float) -> dict[str, Any]:
+                   timeout_s: float, clock: str = "sim") -> dict[str, Any]:
     """Run the stack of `profile` (the episode of `draw`) with its output in `folder`; the
     record read from its recording (``record.json`` is written by the caller)."""
     t0 = time.monotonic()
-    code, timed_out = run_stack(launcher_command(profile, folder, draw.episode), folder / "console.txt", timeout_s)
+    command = launcher_command(profile, folder, draw.episode, clock)
+    code, timed_out = run_stack(command, folder / "console.txt", timeout_s)
     wall_s = time.monotonic() - t0
     recording = recording_file(folder, draw.episode)
     try:
@@ -167,6 +171,6 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
     _base_path, base = read_base_profile(task.base_profile)
     draw = draw_episode(task.run_seed, task.episode)
     profile = write_episode_profile(base, draw, folder / "profile.toml")
-    record = run_and_record(folder, profile, draw, planner_config(base), task.timeout_s)
+    record = run_and_record(folder, profile, draw, planner_config(base), task.timeout_s, task.clock)
     write_json(folder / "record.json", record)
     return record
