@@ -80,7 +80,7 @@ HEARTBEAT = _T("runtime/heartbeat", m.Heartbeat, "state", 10, "every service", "
                per_sender=True)
 SIM_TRUTH = _T("sim/truth", m.SimTruth, "state", 100, "bridge", "simulator ground truth (10 Hz at rest)")
 KINECT_TRUTH = _T("sim/kinect_truth", m.KinectTruth, "state", 30, "tracker or kinect", "body truth (10 Hz still)")
-CLOCK = _T("sim/clock", m.ClockGrant, "clock", 0, "bridge", "simulation clock step (sim clock only)")
+CLOCK = _T("sim/clock", m.ClockGrant, "clock", 0, "bridge", "simulation clock step, on sim/clock/<participant>")
 CLOCK_READY = _T("sim/clock_ready", m.ClockReady, "clock", 0, "every clock participant",
                  "done with a step, next step wanted (sim clock only)", per_sender=True)
 del _T

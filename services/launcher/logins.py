@@ -177,7 +177,8 @@ def run_access_control(services: Iterable[str], job: str, profile: Profile | Non
                                      "[bus.access_control]) instead")
         unused = _unused(name, profile)
         own = (tuple(f"{{prefix}}/{t.suffix}" for t in PUBLISHES[name] if t not in unused)
-               + ROS_PUBLISHES.get(name, ()))
+               + ROS_PUBLISHES.get(name, ())
+               + (("{prefix}/sim/clock/*",) if T.CLOCK in PUBLISHES[name] else ()))  # a key per participant
         users[name] = UserPermissions(publish=own, subscribe=everything)
     follows = (T.SUPERVISOR_STATE, T.EPISODE, T.SIM_TRUTH, T.JOINT_STATE)
     # The job stops the arm itself when the supervisor falls silent; the demo drives the arm.

@@ -117,7 +117,7 @@ class SimClock:
         """Follow the owner's grants on `node`'s bus and answer on its own ready key."""
         self._stopping = node.stop_event
         self._ready_pub = node.publisher(topics.CLOCK_READY, own_stamps=True)
-        node.session.declare_subscriber(topics.CLOCK.key(node.profile.prefix), self._on_sample)
+        node.session.declare_subscriber(grant_key(node.profile.prefix, self.name), self._on_sample)
 
     def _on_sample(self, sample: Any) -> None:  # Zenoh thread: decode and record, nothing else
         from bus_schema import decode
@@ -191,6 +191,12 @@ class SimClock:
                 self._send_ready(self._now_ns, leaving=True)
             except Exception:  # noqa: BLE001 - best effort: the session may be closing
                 pass
+
+
+def grant_key(prefix: str, participant: str) -> str:
+    """The key the owner grants `participant`'s steps on: ``<prefix>/sim/clock/<participant>``
+    (one key per participant: a step wakes only those it names)."""
+    return f"{topics.CLOCK.key(prefix)}/{participant}"
 
 
 def clock_source(profile_source: str | None) -> str:

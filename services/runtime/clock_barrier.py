@@ -64,6 +64,8 @@ class ClockBarrier:
     steps: int = 0
     event_pending: bool = False
     excusals: int = 0
+    event_steps: int = 0
+    owner_only_steps: int = 0
 
     def __post_init__(self) -> None:
         for name in self.expected:
@@ -126,12 +128,15 @@ class ClockBarrier:
             time_ns = self.now_ns + EVENT_STEP_NS
             due = tuple(sorted(active))
             owner_due = True
+            self.event_steps += 1
         else:
             time_ns = min([owner_next_ns, *(p.next_ns for p in active.values())])
             due = tuple(sorted(n for n, p in active.items() if p.next_ns <= time_ns))
             owner_due = owner_next_ns <= time_ns
         for name in due:
             active[name].pending = True
+        if not due:
+            self.owner_only_steps += 1
         self.now_ns = max(self.now_ns, time_ns)
         step = Step(self.steps, self.now_ns, due, owner_due)
         self.steps += 1

@@ -17,12 +17,17 @@ import threading
 import time
 from typing import TYPE_CHECKING, Any
 
-from bus_schema import decode, topics
-from services.runtime.clock import CLOCK_ENV, ClockError, SimClock, WallClock, clock_source, seconds_to_ns
+import zenoh
+
+from bus_schema import decode, encode_for, topics
+from bus_schema.messages import ClockGrant
+from services.runtime.clock import (CLOCK_ENV, ClockError, SimClock, WallClock, clock_source, grant_key,
+                                    seconds_to_ns)
 from services.runtime.clock_barrier import ClockBarrier, Step
 from services.runtime.liveliness import LivelinessWatcher
 from services.runtime.logs import RateLimitedLog
 from services.runtime.sched import read_state
+from services.runtime.stamps import SenderClock
 
 if TYPE_CHECKING:
     from services.runtime.node import ServiceNode
@@ -82,16 +87,21 @@ class ClockOwner:
         self.name = name
         self.barrier = ClockBarrier(expected)
         self._cond = threading.Condition()
-        self._grant_pub: Any = None
+        self._grant_pubs: dict[str, Any] = {}  # participant → its grant key's publisher
+        self._session: Any = None
+        self._prefix = ""
+        self._stamps = SenderClock()
         self._stopping: threading.Event | None = None
         self._watcher: LivelinessWatcher | None = None
         self._slow_log = RateLimitedLog(log, SLOW_REPORT_S)
-        self._started_wall_s: float | None = None
+        self._started_wall_s: float | None = None  # when it began waiting for the participants
+        self._first_step_wall_s: float | None = None
 
     def attach(self, node: ServiceNode) -> None:
         """Grant steps on `node`'s bus and take the participants' answers and liveliness."""
         self._stopping = node.stop_event
-        self._grant_pub = node.publisher(topics.CLOCK, own_stamps=True)
+        self._session, self._prefix = node.session, node.profile.prefix
+        self._stamps.follow(self.now_ns)
         node.session.declare_subscriber(topics.CLOCK_READY.key(node.profile.prefix), self._on_ready)
         self._watcher = LivelinessWatcher(node.session, node.profile.prefix, on_change=self._on_liveliness)
 
@@ -145,16 +155,31 @@ class ClockOwner:
     def wait(self, timeout_s: float) -> bool:
         """Grant steps until time reaches ``now + timeout_s`` or an event step; returns True at
         a step of the owner's, False on shutdown."""
-        if self._grant_pub is None:
+        if self._session is None:
             raise ClockError(f"{self.name}: the simulation clock's owner is not attached to a bus session")
         owner_next_ns = self.barrier.now_ns + max(0, seconds_to_ns(timeout_s))
         while True:
             step = self._next_step(owner_next_ns)
             if step is None:
                 return False
-            self._grant_pub.put(step=step.number, time_ns=step.time_ns, due=list(step.due))
+            self._grant(step)
             if step.owner_due:
                 return True
+
+    def _grant(self, step: Step) -> None:
+        """Send `step` to each participant it names, on its own key (a step of the owner's
+        alone is sent to nobody: a participant's time moves at its next step)."""
+        if not step.due:
+            return
+        payload = encode_for(topics.CLOCK, ClockGrant(seq=step.number, stamp_ns=self._stamps.now_ns(), source=self.name,
+                                                      step=step.number, time_ns=step.time_ns, due=list(step.due)))
+        for name in step.due:
+            pub = self._grant_pubs.get(name)
+            if pub is None:
+                pub = self._grant_pubs[name] = self._session.declare_publisher(
+                    grant_key(self._prefix, name), congestion_control=zenoh.CongestionControl.BLOCK,
+                    priority=zenoh.Priority.DATA)
+            pub.put(payload)
 
     def _next_step(self, owner_next_ns: int) -> Step | None:
         """The next step once the barrier allows it (None on shutdown)."""
@@ -165,6 +190,8 @@ class ClockOwner:
                     return None
                 step = self.barrier.next_step(owner_next_ns)
                 if step is not None:
+                    if self._first_step_wall_s is None:
+                        self._first_step_wall_s = time.monotonic()
                     return step
                 self._cond.wait(STOPPED_CHECK_S)
                 waited_s += STOPPED_CHECK_S
@@ -192,6 +219,19 @@ class ClockOwner:
                                              f"(process state {state})")
 
     def close(self) -> None:
+        b = self.barrier
+        if self._first_step_wall_s is not None:
+            wall_s = time.monotonic() - self._first_step_wall_s
+            log.info("simulation clock: %d steps (%d of the owner alone, %d event steps) over %.2f s simulated "
+                     "in %.2f s of wall time: %.2f× real time; %d participant(s) excused", b.steps,
+                     b.owner_only_steps, b.event_steps, b.now_ns / 1e9, wall_s, b.now_ns / 1e9 / max(wall_s, 1e-9),
+                     b.excusals)
+        for pub in self._grant_pubs.values():
+            try:
+                pub.undeclare()
+            except Exception:  # noqa: BLE001 - best-effort close: the session may be closing
+                pass
+        self._grant_pubs.clear()
         if self._watcher is not None:
             self._watcher.undeclare()
             self._watcher = None
