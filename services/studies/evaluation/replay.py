@@ -2,9 +2,10 @@
 folder ``<run>/replays/eNNNN-<time>/``, its outcome beside the original's, and the command
 that opens the new recording.
 
-The stack runs on the wall clock: the seed fixes the receiver, the object and the noise, but
-not the services' timing, so a replay can differ in details (and, near a threshold, in its
-outcome) from the original. The original recording stays in ``episodes/eNNNN/``.
+The stack runs on the run's clock (its manifest's): on the simulation clock the replay is the
+same episode step for step; on the wall clock the seed fixes the receiver, the object and the
+noise but not the services' timing, so a replay can differ in details (and, near a threshold,
+in its outcome). The original recording stays in ``episodes/eNNNN/``.
 """
 
 from __future__ import annotations
