@@ -92,8 +92,8 @@ def _add_report(sub: Any) -> None:
 def _add_replay(sub: Any) -> None:
     p = sub.add_parser("replay", help="run one episode of a run again and point to its recording",
                        description="Run the episode's stack again with its own profile and seed, on the run's clock "
-                       "(the simulation clock: the same episode step for step; the wall clock: details can differ) into "
-                       "<run>/replays/, print its outcome beside the original's and the command that opens the "
+                       "(the simulation clock: the same episode step for step; the wall clock: details can "
+                       "differ) into <run>/replays/, print its outcome beside the original's and the command that opens the "
                        "new recording.", formatter_class=HelpFormatter)
     p.add_argument("--run", type=Path, required=True, help="the run's folder")
     p.add_argument("--episode", type=int, required=True, help="the episode (its number in the report)")
