@@ -93,8 +93,8 @@ def _add_replay(sub: Any) -> None:
     p = sub.add_parser("replay", help="run one episode of a run again and point to its recording",
                        description="Run the episode's stack again with its own profile and seed, on the run's clock "
                        "(the simulation clock: the same episode step for step; the wall clock: details can "
-                       "differ) into <run>/replays/, print its outcome beside the original's and the command that opens the "
-                       "new recording.", formatter_class=HelpFormatter)
+                       "differ) into <run>/replays/, print its outcome beside the original's and the command "
+                       "that opens the new recording.", formatter_class=HelpFormatter)
     p.add_argument("--run", type=Path, required=True, help="the run's folder")
     p.add_argument("--episode", type=int, required=True, help="the episode (its number in the report)")
     p.add_argument("--open", action="store_true", help="open the new recording in the Rerun viewer (needs a display)")
