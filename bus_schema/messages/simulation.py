@@ -56,10 +56,11 @@ class KinectTruth(Message, frozen=True, kw_only=True):
 
 
 class ClockGrant(Message, frozen=True, kw_only=True):
-    """The simulation clock's next step (the bridge's simulation owns time: `sim/clock`).
+    """The simulation clock's next step (the bridge's simulation owns time), sent on
+    `sim/clock/<participant>` to each participant it names.
 
-    Every process of a stack on the simulation clock sets its time to `time_ns`; the named
-    `due` participants run their work for that time and answer with a `ClockReady`.
+    A participant sets its time to `time_ns`, runs its work for that time and answers with a
+    `ClockReady`.
 
     Attributes:
         step: number of the step (0 for the first).

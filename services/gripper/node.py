@@ -23,6 +23,7 @@ Undecodable payloads are dropped at the edge (counted, named in the state's reas
 from __future__ import annotations
 
 import logging
+import os
 import re
 import threading
 import time
@@ -36,7 +37,7 @@ from bus_schema.codec import DecodeError
 from services.gripper.config import GripperConfig
 from services.gripper.core import GripDecision, GripperCore, MotionReading, WrenchReading
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
-from services.runtime.clock import PARTICIPANT_PHASE_S, first_grid_time_s
+from services.runtime.clock import CLOCK_ENV, PARTICIPANT_PHASE_S, first_grid_time_s
 from services.runtime.repeat import HOLD_REPEAT_S, RepeatGate
 
 log = logging.getLogger(__name__)
@@ -162,6 +163,16 @@ def _offer_queued(gripper_io: _GripperIO, wrench_sub, motion_sub) -> None:
         gripper_io.core.note_rejected("object_motion", motion_sub.stats.rejected)
 
 
+def supervisor_runs(profile: Profile) -> bool:
+    """Whether this run has a supervisor: the launcher's list of clock participants when it set
+    one, else the profile's (enabled) supervisor."""
+    started = os.environ.get(CLOCK_ENV + "_PARTICIPANTS")
+    if started is not None:
+        return "supervisor" in started.split(",")
+    spec = profile.service("supervisor")
+    return spec is not None and spec.enabled
+
+
 def _next_sensor_step_s(now_s: float) -> float:
     """Simulation clock: the next step after `now_s` (s) at which a wrench sample sent at the
     bridge's tick has arrived (the sensor's grid, shifted by a participant's phase). The
@@ -192,7 +203,7 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
         # Simulation clock: the supervisor's first state is at its first step, 1 ms in; until
         # then the core's default request (``transfer``, for a gripper run alone) would start the
         # controller on an empty gripper. Every run waits for that word the same way.
-        heard_supervisor = not (clock.is_sim and profile.service("supervisor") is not None)
+        heard_supervisor = not (clock.is_sim and supervisor_runs(profile))
         log.info("gripper running", extra=kv(controller=config.controller, rate_hz=config.rate_hz,
                                              wrench_timeout_s=config.wrench_timeout_s,
                                              step_in_callback=config.step_in_callback))

@@ -57,6 +57,11 @@ PUBLISHES: dict[str, tuple[T.Topic, ...]] = {
     "fake_baxter": (T.SKELETON, T.DEPTH, T.SIM_TRUTH, T.KINECT_TRUTH),  # it plays the Kinect driver too
 }
 
+#: The services that answer the simulation clock (`services.runtime.clock`), each on its own
+#: ``sim/clock_ready/<name>``; the bridge grants the steps, the recorder and the launcher only
+#: follow.
+CLOCK_PARTICIPANTS = ("tracker", "kinect", "motion", "gripper", "supervisor", "planner")
+
 #: ROS 1 keys (zenoh-bridge-ros1's ``<type>/<md5>/<topic>``, any namespace or key format:
 #: ``**``) for the Baxter profiles: the bridge's Baxter backend sends the robot's commands, the
 #: fake Baxter (robot, sensors and zenoh-bridge-ros1 in one process) its state and sensors,
@@ -143,7 +148,8 @@ def create_run_logins(directory: Path, users: Iterable[str]) -> RunLogins:
 #: Keys a service publishes only in some set-ups: the tracker renders the Kinect only with
 #: ``sensor = "sim"`` (with ``"ros1"`` it publishes the skeleton and depth it converts, but no
 #: Kinect truth), the bridge runs the simulation (and its truth) only with the sim backend.
-_SIM_ONLY: dict[str, tuple[T.Topic, ...]] = {"tracker": (T.SKELETON, T.DEPTH, T.KINECT_TRUTH), "bridge": (T.SIM_TRUTH,)}
+_SIM_ONLY: dict[str, tuple[T.Topic, ...]] = {"tracker": (T.SKELETON, T.DEPTH, T.KINECT_TRUTH),
+                                             "bridge": (T.SIM_TRUTH, T.CLOCK)}
 
 
 def _unused(name: str, profile: Profile | None) -> tuple[T.Topic, ...]:
@@ -178,7 +184,8 @@ def run_access_control(services: Iterable[str], job: str, profile: Profile | Non
         unused = _unused(name, profile)
         own = (tuple(f"{{prefix}}/{t.suffix}" for t in PUBLISHES[name] if t not in unused)
                + ROS_PUBLISHES.get(name, ())
-               + (("{prefix}/sim/clock/*",) if T.CLOCK in PUBLISHES[name] else ()))  # a key per participant
+               + (("{prefix}/sim/clock/*",) if T.CLOCK in PUBLISHES[name] and T.CLOCK not in unused else ())
+               + ((T.CLOCK_READY.sender_key(name, "{prefix}"),) if name in CLOCK_PARTICIPANTS else ()))
         users[name] = UserPermissions(publish=own, subscribe=everything)
     follows = (T.SUPERVISOR_STATE, T.EPISODE, T.SIM_TRUTH, T.JOINT_STATE)
     # The job stops the arm itself when the supervisor falls silent; the demo drives the arm.

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from bus_schema.topics import CLOCK_READY, HEARTBEAT, sender_name_ok
+from bus_schema.topics import HEARTBEAT, sender_name_ok
 from services.runtime.errors import ProfileError
 
 CREDENTIALS_ENV = "HANDOVER_BUS_CREDENTIALS"
@@ -101,8 +101,7 @@ class AccessControl:
     Every authenticated user may also declare its own liveliness token
     (``{prefix}/alive/<user>``), watch and query the others', and publish its own heartbeat
     (``{prefix}/runtime/heartbeat/<user>``: a user can beat for nobody else, so a heartbeat's
-    sender is its login) and its own simulation clock answers (``{prefix}/sim/clock_ready/<user>``);
-    everything else needs a ``publish``/``subscribe``/``query`` entry.
+    sender is its login); everything else needs a ``publish``/``subscribe``/``query`` entry.
 
     Attributes:
         default_permission: ``deny`` (anything not allowed below is dropped) or ``allow``.
@@ -131,8 +130,7 @@ class AccessControl:
         policies: list[dict[str, Any]] = []
         for name, perms in sorted(self.users.items()):
             ids: list[str] = ["liveliness_watch", "liveliness_see"]
-            own = [HEARTBEAT.sender_key(name, prefix), CLOCK_READY.sender_key(name, prefix)]
-            publish = expand(perms.publish) + own + expand(self.common_publish)
+            publish = expand(perms.publish) + [HEARTBEAT.sender_key(name, prefix)] + expand(self.common_publish)
             candidates = (
                 ("token", ["ingress"], ["liveliness_token"], [f"{prefix}/alive/{name}"]),
                 ("publish", ["ingress"], ["put", "delete"], publish),

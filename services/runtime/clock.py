@@ -3,8 +3,8 @@
 On the wall clock (every hardware profile, and a simulation run with ``--clock wall``) a
 service's time is `time.monotonic()` and its loops sleep. On the simulation clock (as ROS's
 ``use_sim_time`` and Gazebo's ``/clock``) the bridge's simulation owns time
-(`services.runtime.clock_owner`): it grants steps on ``sim/clock`` (`ClockGrant`), and every
-service that paces a loop takes part: it runs the work due at a step, then says so on
+(`services.runtime.clock_owner`): it grants steps on ``sim/clock/<participant>`` (`ClockGrant`),
+and every service that paces a loop takes part: it runs the work due at a step, then says so on
 ``sim/clock_ready/<name>`` (`ClockReady`) with the time it next needs. Time moves on only when
 every participant due at a step has answered, so the stack runs as fast as its slowest
 service allows, faster than real time on a free machine and slower, without a false fault, on a
@@ -52,6 +52,10 @@ PARTICIPANT_PHASE_S = 0.001
 EVENT_STEP_NS = 1_000
 #: A participant blocked on the clock looks at its stop event at least this often, s (wall).
 STOP_POLL_S = 0.1
+#: A participant blocked on the clock repeats its last answer this often, s (wall): before its
+#: first step the owner may not have been listening yet, and an owner that excused it (its
+#: process was stopped, or restarted) takes it back when it hears it again.
+REPEAT_ANSWER_S = 1.0
 
 
 class ClockError(ServiceError):
@@ -167,13 +171,16 @@ class SimClock:
         next_ns = self._now_ns + max(1, seconds_to_ns(timeout_s))
         self._participating = True
         self._send_ready(next_ns)
+        repeat_at_s = time.monotonic() + (STOP_POLL_S if self._named_step < 0 else REPEAT_ANSWER_S)
         with self._cond:
             while self._named_step <= self._acted_step:
                 if self._stopping is not None and self._stopping.is_set():
                     return False
                 self._cond.wait(STOP_POLL_S)
-                if self._named_step < 0 and self._last_answer is not None:
-                    self._ready_pub.put(**self._last_answer)  # before the first step the owner may not have heard it
+                if self._last_answer is not None and time.monotonic() >= repeat_at_s \
+                        and self._named_step <= self._acted_step:
+                    self._ready_pub.put(**self._last_answer)  # see REPEAT_ANSWER_S
+                    repeat_at_s = time.monotonic() + (STOP_POLL_S if self._named_step < 0 else REPEAT_ANSWER_S)
             self._acted_step = self._named_step
         self.steps += 1
         return True

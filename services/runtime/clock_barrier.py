@@ -7,7 +7,10 @@ granted at the earliest time any participant (or the owner) needs; those that ne
 and the next step waits until each of them has answered. A step in which any participant sent
 an event is followed by an event step `EVENT_STEP_NS` later at which every participant is due.
 A participant that leaves, whose liveliness is lost or whose process is stopped or gone (the
-owner asks the kernel) is excused: nobody waits for it until it answers again.
+owner asks the kernel) is excused: nobody waits for it until it answers again (a participant
+blocked on the clock repeats its answer every `services.runtime.clock.REPEAT_ANSWER_S`, so one
+that comes back, after a SIGCONT or a restart, is heard). Only the expected participants take
+part: an answer in any other name is ignored.
 """
 
 from __future__ import annotations
@@ -73,21 +76,25 @@ class ClockBarrier:
 
     # ------------------------------------------------------------------ inputs
     def ready(self, name: str, done_ns: int, next_ns: int, *, events: bool = False, leaving: bool = False,
-              pid: int = 0) -> None:
-        """`name` is done up to `done_ns` and next needs `next_ns` (ns); `leaving`: it leaves."""
-        p = self.participants.setdefault(name, Participant())
-        p.registered, p.pid = True, pid or p.pid
+              pid: int = 0) -> bool:
+        """`name` is done up to `done_ns` and next needs `next_ns` (ns); `leaving`: it leaves.
+        An answer from a name the clock does not expect is ignored (False); True otherwise."""
+        p = self.participants.get(name)
+        if p is None:
+            return False
+        p.registered = True
         if events:
             self.event_pending = True
         if leaving:
             p.next_ns, p.pending, p.excused = NEVER_NS, False, True
-            return
-        if p.excused:  # back (SIGCONT, or a late answer): it takes part again from now on
-            p.excused = False
+            return True
         if p.pending and done_ns < self.now_ns:
-            return  # an answer to an older step: it still owes this one
+            return True  # an answer to an older step (or an old process's): it still owes this one
+        p.pid = pid or p.pid
+        p.excused = False  # back (SIGCONT, a restart, a late answer): it takes part again from now on
         p.pending = False
         p.next_ns = max(next_ns, self.now_ns)
+        return True
 
     def excuse(self, name: str) -> None:
         """Stop waiting for `name` (lost, stopped or gone) until it answers again."""

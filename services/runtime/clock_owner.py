@@ -21,6 +21,7 @@ import zenoh
 
 from bus_schema import decode, encode_for, topics
 from bus_schema.messages import ClockGrant
+from bus_schema.topics import sender_of_key
 from services.runtime.clock import (CLOCK_ENV, ClockError, SimClock, WallClock, clock_source, grant_key,
                                     seconds_to_ns)
 from services.runtime.clock_barrier import ClockBarrier, Step
@@ -109,12 +110,20 @@ class ClockOwner:
     def _on_ready(self, sample: Any) -> None:
         try:
             msg = decode(topics.CLOCK_READY, sample.payload.to_bytes())
-        except Exception:  # noqa: BLE001 - a malformed answer is ignored (the sender answers again)
+            if msg.source != sender_of_key(str(sample.key_expr)):  # one login cannot answer for another
+                raise ValueError(f"source {msg.source!r} on {sample.key_expr}")
+        except Exception as exc:  # noqa: BLE001 - a malformed answer is ignored (the sender answers again)
+            self._slow_log.warning("bad answer", f"simulation clock: answer ignored: {exc}")
             return
         with self._cond:
-            self.barrier.ready(msg.source, msg.done_ns, msg.next_ns, events=msg.events, leaving=msg.leaving,
-                               pid=msg.pid)
-            self._cond.notify_all()
+            barrier = self.barrier
+            if not barrier.ready(msg.source, msg.done_ns, msg.next_ns, events=msg.events, leaving=msg.leaving,
+                                 pid=msg.pid):
+                self._slow_log.warning(msg.source, f"simulation clock: {msg.source} is not a participant of this run "
+                                                   f"(expected: {', '.join(sorted(barrier.expected))}): ignored")
+                return
+            if not any(p.pending for p in barrier.participants.values()):
+                self._cond.notify_all()  # the last answer of the step: one wake of the owner, not one per answer
 
     def _on_liveliness(self, name: str, alive: bool) -> None:
         if not alive:
@@ -130,7 +139,7 @@ class ClockOwner:
         return self.barrier.now_ns / 1e9
 
     def note_event(self) -> None:
-        """The owner's own events need no step: it acts on the next one anyway."""
+        """The owner sent an event: the next step is an event step, as for a participant's."""
         with self._cond:
             self.barrier.event_pending = True
 
@@ -183,7 +192,7 @@ class ClockOwner:
 
     def _next_step(self, owner_next_ns: int) -> Step | None:
         """The next step once the barrier allows it (None on shutdown)."""
-        waited_s = 0.0
+        since_s = time.monotonic()
         with self._cond:
             while True:
                 if self._stopping is not None and self._stopping.is_set():
@@ -194,8 +203,7 @@ class ClockOwner:
                         self._first_step_wall_s = time.monotonic()
                     return step
                 self._cond.wait(STOPPED_CHECK_S)
-                waited_s += STOPPED_CHECK_S
-                self._check_quiet(waited_s)
+                self._check_quiet(time.monotonic() - since_s)
 
     def _check_quiet(self, waited_s: float) -> None:
         """Excuse the awaited participants whose process is stopped or gone (lock held)."""
@@ -210,7 +218,7 @@ class ClockOwner:
         for name in barrier.waiting_for():
             pid = barrier.pid_of(name)
             state = read_state(pid) if pid else None
-            if state is None or state in "TtZXx":
+            if state is None or state in "TZXx":  # not "t": a profiler's or debugger's brief stop
                 log.warning("simulation clock: %s is %s: not waiting for it", name,
                             "gone" if state is None else "stopped")
                 barrier.excuse(name)

@@ -135,6 +135,9 @@ class RateLoop:
             yield stats.ticks + stats.urgent_ticks
             stats.ticks += 1
             next_deadline += self.period_s
+            if self._align_phase_s is not None:  # k · period from the phase, not a sum that drifts
+                phase = self._align_phase_s
+                next_deadline = phase + round((next_deadline - phase) / self.period_s) * self.period_s
             now = self._clock()
             if now > next_deadline + self._tolerance_s:
                 next_deadline = self._skip_missed(next_deadline, now)

@@ -124,8 +124,9 @@ class ServiceNode:
     run on the simulation clock the bridge's simulation's. There `clock_role` says what this
     node is to it: ``owner`` (the bridge's simulation grants the steps), ``participant`` (the
     default: its loops and `wait` are paced by the clock, which waits for it) or ``observer``
-    (it follows the clock's time for its stamps and readings, but its loops and waits stay on
-    the wall clock and nobody waits for it: the recorder, the launcher, tools).
+    (its loops, waits and readings stay on the wall clock, it gets no steps and nobody waits for
+    it; what it sends is stamped near 0, so readers take it in at their next step: the recorder,
+    the launcher, tools).
     """
 
     def __init__(

@@ -38,12 +38,11 @@ def test_the_list_gives_each_service_its_own_keys(tmp_path):
     assert "handover/v1/motion/stop" in rules["supervisor_publish"]["key_exprs"]
     assert all("motion/stop" not in k for name in ("bridge", "planner") for k in rules[f"{name}_publish"]["key_exprs"])
     assert rules["planner_publish"]["key_exprs"] == ["handover/v1/planner/transfer",
-                                                     "handover/v1/runtime/heartbeat/planner",
-                                                     "handover/v1/sim/clock_ready/planner"]
-    assert rules["recorder_publish"]["key_exprs"] == ["handover/v1/runtime/heartbeat/recorder",
-                                                      "handover/v1/sim/clock_ready/recorder"]
+                                                     "handover/v1/sim/clock_ready/planner",
+                                                     "handover/v1/runtime/heartbeat/planner"]
+    assert rules["recorder_publish"]["key_exprs"] == ["handover/v1/runtime/heartbeat/recorder"]
     assert "observer_subscribe" in rules and rules["observer_publish"]["key_exprs"] == [
-        "handover/v1/runtime/heartbeat/observer", "handover/v1/sim/clock_ready/observer"]
+        "handover/v1/runtime/heartbeat/observer"]
     assert "handover/v1/robot/joint_command" not in rules["launcher_publish"]["key_exprs"]
     assert "handover/v1/motion/stop" in rules["launcher_publish"]["key_exprs"]  # its own protective stop
     demo = {r["id"]: r for r in run_access_control(["bridge"], "demo").zenoh_dict("handover/v1")["rules"]}

@@ -86,3 +86,24 @@ def test_an_answer_to_an_older_step_does_not_count_for_the_current_one():
     assert barrier.waiting_for() == ["motion"]
     barrier.ready("motion", 5 * MS, 6 * MS)
     assert barrier.waiting_for() == []
+
+
+def test_an_answer_in_a_name_the_clock_does_not_expect_is_ignored():
+    barrier = _registered("motion")
+    assert barrier.ready("ghost", 0, 1 * MS, pid=1) is False
+    assert "ghost" not in barrier.participants
+    step = barrier.next_step(10 * MS)
+    assert step is not None and step.due == ("motion",)
+
+
+def test_a_restarted_participant_is_taken_back_with_its_new_process():
+    barrier = _registered("planner")
+    barrier.next_step(10 * MS)  # the planner (pid 100) is due at 1 ms and dies before answering
+    assert barrier.waiting_for() == ["planner"]
+    barrier.ready("planner", 0, 1 * MS, pid=200)  # its replacement's first answer: an older step's
+    assert barrier.pid_of("planner") == 100 and barrier.waiting_for() == ["planner"]
+    barrier.excuse("planner")  # the owner finds pid 100 gone
+    barrier.ready("planner", 0, 1 * MS, pid=200)  # the replacement repeats its answer
+    assert barrier.pid_of("planner") == 200 and not barrier.participants["planner"].excused
+    step = barrier.next_step(10 * MS)
+    assert step is not None and step.due == ("planner",) and step.time_ns == 1 * MS

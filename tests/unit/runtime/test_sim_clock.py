@@ -62,6 +62,20 @@ def test_an_aligned_loop_ticks_on_its_grid_on_a_stepped_clock():
     assert loop.stats.overruns == 0 and len(ticks) == 200
 
 
+def test_an_aligned_grid_does_not_drift_over_a_long_run():
+    """k · period from the phase, not a float sum: after 100 000 ticks (1 000 s at 100 Hz) a tick
+    is still on the whole-ns grid, where another loop's tick of the same time is."""
+    now_ns = [0]
+    stop = threading.Event()
+    loop = RateLoop(100.0, stop, clock=lambda: now_ns[0] / 1e9,
+                    wait=lambda t: now_ns.__setitem__(0, now_ns[0] + max(1, seconds_to_ns(t))),
+                    align_phase_s=0.001, tolerance_s=1e-6)
+    for index in loop:
+        if index == 100_000:
+            break
+    assert now_ns[0] == 1_000_001_000_000
+
+
 class _Sent:
     """A stand-in for the ready publisher: records every answer."""
 
