@@ -159,6 +159,8 @@ def _client(scheduler: str | None, workers: int) -> Iterator[Any]:
     processes that is torn down on exit (any of its processes left is terminated)."""
     from distributed import Client, LocalCluster
 
+    from services.studies.engine_worker import KeepFreedMemory
+
     if scheduler is not None:
         try:
             remote = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s", set_as_default=False)
@@ -167,6 +169,7 @@ def _client(scheduler: str | None, workers: int) -> Iterator[Any]:
                               f"({type(exc).__name__}); check that `dask scheduler` runs there and that this "
                               "machine may connect to it") from exc
         try:
+            remote.register_plugin(KeepFreedMemory())
             yield remote
         finally:
             remote.close(timeout=CLOSE_TIMEOUT_S)
@@ -180,6 +183,7 @@ def _client(scheduler: str | None, workers: int) -> Iterator[Any]:
                                    scheduler_port=0, dashboard_address="127.0.0.1:0", worker_dashboard_address=None,
                                    silence_logs=logging.ERROR)
             client = Client(cluster, set_as_default=False)
+            client.register_plugin(KeepFreedMemory())
         except (OSError, TimeoutError) as exc:
             raise EngineError(f"the local Dask cluster did not start ({type(exc).__name__}: {exc})") from exc
         yield client
