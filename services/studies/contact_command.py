@@ -12,12 +12,11 @@ Exit codes: 0 done, 1 the run failed (a chunk raised, the cluster unreachable), 
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 from robot_sim.contact import cli as contact_cli
 from robot_sim.contact.batch import MapTasks
-from services.studies.engine import run_tasks
+from services.studies.engine import available_cores, run_tasks
 from services.studies.engine_cli import add_engine_arguments, engine_options
 from services.studies.engine_errors import EngineError
 
@@ -33,7 +32,7 @@ class _Engine:
     def mapper(self, args: argparse.Namespace) -> tuple[MapTasks, int | None]:
         options = engine_options(args, "batch")
         options["description"] = f"{args.behaviour} episodes"
-        workers = None if options["address"] else options["workers"] or os.cpu_count() or 1
+        workers = None if options["address"] else options["workers"] or available_cores()
 
         def map_tasks(function, tasks: list) -> list:
             return run_tasks(function, tasks, unit="ep", weights=[t.size for t in tasks], **options)

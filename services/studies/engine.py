@@ -8,7 +8,8 @@ the results in argument order. Where the tasks run:
   on 127.0.0.1 only (the scheduler's HTTP server too: health checks only, the dashboard needs
   bokeh, which is not installed); torn down after the call, also on an error or Ctrl-C (any
   process of the cluster still alive then is terminated). ``workers=1`` runs the tasks in this
-  process instead (no start-up cost, same checkpoint, progress and errors).
+  process instead (no start-up cost, same checkpoint, progress and errors), and so does a
+  call with a single task left to run.
 - ``address="host:port"`` (or ``tcp://host:port``, ``tls://host:port``): an existing Dask
   scheduler (``dask scheduler`` and ``dask worker`` on the machines; every worker needs this
   project installed at the same version, see docs/engine.md). Its workers run the tasks;
@@ -44,7 +45,7 @@ from tqdm import tqdm
 from services.studies.engine_checkpoint import Checkpoint
 from services.studies.engine_errors import EngineError, EngineUsageError
 
-__all__ = ["EngineError", "EngineUsageError", "normalise_address", "run_tasks"]
+__all__ = ["EngineError", "EngineUsageError", "available_cores", "normalise_address", "run_tasks"]
 
 log = logging.getLogger(__name__)
 
@@ -70,7 +71,7 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
     """Run task_function(argument) for every argument on the engine; results in argument order.
 
     address None: a local cluster started for the call (`workers` processes, default every
-    core; 1 runs in this process), torn down after; address "host:port" (or "tcp://host:port"):
+    core; 1, or a single task to run, runs in this process), torn down after; address "host:port" (or "tcp://host:port"):
     an existing Dask cluster. checkpoint_path: every finished task's result is appended
     (durably, flushed) as it finishes; a call with the same checkpoint_path and the same
     arguments skips the finished ones (resume), and refuses with an EngineUsageError if the
@@ -81,10 +82,10 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
     if scheduler is not None and workers is not None:
         raise EngineUsageError("--workers sizes the local cluster; with --address the cluster's own workers run "
                                "the tasks (drop --workers)")
-    workers = (os.cpu_count() or 1) if workers is None else int(workers)
+    workers = available_cores() if workers is None else int(workers)
     if workers < 1:
         raise EngineUsageError(f"workers must be >= 1, got {workers}")
-    sizes = [1.0] * len(arguments) if weights is None else [float(w) for w in weights]
+    sizes = [1] * len(arguments) if weights is None else list(weights)
     if len(sizes) != len(arguments):
         raise EngineUsageError(f"{len(sizes)} weights for {len(arguments)} tasks")
     checkpoint = Checkpoint.open(checkpoint_path, task_function, arguments) if checkpoint_path is not None else None
@@ -101,7 +102,7 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
         bar.update(sizes[index])
 
     try:
-        if pending and scheduler is None and workers == 1:
+        if pending and scheduler is None and (workers == 1 or len(pending) == 1):
             _run_here(task_function, arguments, pending, finished)
         elif pending:
             with _client(scheduler, min(workers, len(pending))) as client:
@@ -111,6 +112,14 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
         if checkpoint is not None:
             checkpoint.close()
     return [results[i] for i in range(len(arguments))]
+
+
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity; `os.cpu_count` where unknown)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
 
 
 def _task_failed(index: int, argument: Any, error: BaseException) -> EngineError:
