@@ -71,8 +71,8 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
     """Run task_function(argument) for every argument on the engine; results in argument order.
 
     address None: a local cluster started for the call (`workers` processes, default every
-    core; 1, or a single task to run, runs in this process), torn down after; address "host:port" (or "tcp://host:port"):
-    an existing Dask cluster. checkpoint_path: every finished task's result is appended
+    core; 1, or a single task to run, runs in this process), torn down after; address
+    "host:port" (or "tcp://host:port"): an existing Dask cluster. checkpoint_path: every finished task's result is appended
     (durably, flushed) as it finishes; a call with the same checkpoint_path and the same
     arguments skips the finished ones (resume), and refuses with an EngineUsageError if the
     arguments differ from the checkpoint's. A tqdm progress bar with rate and ETA on stderr
