@@ -25,6 +25,7 @@ HEADER = ("episodes", "wall s", "episodes/s", "episodes/s per core", "SG drops %
 
 
 @pytest.mark.bench
+@pytest.mark.timeout(6 * 3600)  # 1 M episodes: about half an hour on 2 cores
 def test_bench_engine_scale():
     rows, results = [], {"workers": WORKERS, "controller": "SG", "population": "wide", "chunk_size": 250}
     for n in SIZES:
