@@ -72,11 +72,12 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
 
     address None: a local cluster started for the call (`workers` processes, default every
     core; 1, or a single task to run, runs in this process), torn down after; address
-    "host:port" (or "tcp://host:port"): an existing Dask cluster. checkpoint_path: every finished task's result is appended
-    (durably, flushed) as it finishes; a call with the same checkpoint_path and the same
-    arguments skips the finished ones (resume), and refuses with an EngineUsageError if the
-    arguments differ from the checkpoint's. A tqdm progress bar with rate and ETA on stderr
-    when show_progress, counting `weights` (e.g. episodes per task, in `unit`) or tasks."""
+    "host:port" (or "tcp://host:port"): an existing Dask cluster. checkpoint_path: every
+    finished task's result is appended (durably, flushed) as it finishes; a call with the same
+    checkpoint_path and the same arguments skips the finished ones (resume), and refuses with
+    an EngineUsageError if the arguments differ from the checkpoint's. A tqdm progress bar
+    with rate and ETA on stderr when show_progress, counting `weights` (e.g. episodes per
+    task, in `unit`) or tasks."""
     arguments = list(task_arguments)
     scheduler = normalise_address(address) if address is not None else None
     if scheduler is not None and workers is not None:
