@@ -1,7 +1,9 @@
-"""`python -m robot_sim.contact`: see `robot_sim.contact.cli`."""
+"""`python -m robot_sim.contact`: see `robot_sim.contact.cli` (batches in this process;
+`handover-contact` runs them on the studies' engine)."""
 
 import sys
 
 from robot_sim.contact.cli import main
 
-sys.exit(main())
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,8 +1,13 @@
 """Command line of the contact simulator: one episode (with a plot), a batch, the doc figures.
 
-    python -m robot_sim.contact episode --behaviour taking --controller release-after --plot out/ep.png
-    python -m robot_sim.contact batch --behaviour mixed -n 10000 --workers 2 --json out/batch.json
-    python -m robot_sim.contact figures --out docs/img
+    handover-contact episode --behaviour taking --controller release-after --plot out/ep.png
+    handover-contact batch --behaviour mixed -n 10000 --workers 2 --json out/batch.json
+    handover-contact figures --out docs/img
+
+`handover-contact` (`services.studies.contact_command`) is this command line with an engine
+(`BatchEngine`: the studies' Dask engine, flags --workers, --address, --checkpoint) that runs a
+batch's chunks; `python -m robot_sim.contact` is the same without one: batches run in this
+process (robot_sim never imports the services).
 """
 
 from __future__ import annotations
@@ -16,9 +21,9 @@ import math
 import sys
 from dataclasses import replace
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Protocol
 
-from robot_sim.contact.batch import run_batch
+from robot_sim.contact.batch import MapTasks, run_batch
 from robot_sim.contact.config import ContactSimError, GripperParams, SensorParams, SimConfig
 from robot_sim.contact.controllers import ConstantGrip, ReleaseAfter
 from robot_sim.contact.episode import run_episode
@@ -37,6 +42,16 @@ def _finite(kind):
             raise argparse.ArgumentTypeError(f"{text!r} is not a finite number")
         return v
     return parse
+
+
+class BatchEngine(Protocol):
+    """What runs a batch's chunks elsewhere: its flags, and from them the mapping function
+    (`robot_sim.contact.batch.MapTasks`) and the number of worker processes (None: unknown,
+    a cluster's)."""
+
+    def add_arguments(self, parser: argparse.ArgumentParser) -> None: ...
+
+    def mapper(self, args: argparse.Namespace) -> tuple[MapTasks, int | None]: ...
 
 
 def _controller_factory(args) -> Callable[[], GripController]:
@@ -96,7 +111,7 @@ class _OneLineParser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(engine: BatchEngine | None = None) -> argparse.ArgumentParser:
     parser = _OneLineParser(prog="handover-contact",
                                      description="Contact simulator of the handover transfer phase: one "
                                                  "episode, a batch, or the thesis's figures.")
@@ -111,10 +126,11 @@ def build_parser() -> argparse.ArgumentParser:
     bt = sub.add_parser("batch", help="run many randomised episodes in parallel and summarise")
     bt.add_argument("--behaviour", choices=BEHAVIOURS[:-1] + ("mixed", "mixed-wide"), default="mixed")
     bt.add_argument("-n", "--episodes", type=int, default=1000, help="number of episodes (1000)")
-    bt.add_argument("--workers", type=int, default=None, help="processes (default: all cores)")
     bt.add_argument("--chunk-size", type=int, default=500, help="episodes per vectorised chunk (500)")
     bt.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_common(bt)
+    if engine is not None:
+        engine.add_arguments(bt)
     fg = sub.add_parser("figures", help="write the documentation figures (one taking, one dropping episode)")
     fg.add_argument("--out", type=Path, default=Path("docs/img"), help="folder for the PNGs (docs/img)")
     return parser
@@ -152,13 +168,16 @@ def _episode(args) -> int:
     return 0
 
 
-def _batch(args) -> int:
+def _batch(args, engine: BatchEngine | None) -> int:
     cfg = _config(args)
+    map_tasks, workers = engine.mapper(args) if engine is not None else (None, 1)
     res = run_batch(cfg, args.behaviour, args.episodes, _controller_factory(args), seed=args.seed,
-                    workers=args.workers, chunk_size=args.chunk_size, progress=not args.no_progress)
+                    chunk_size=args.chunk_size, progress=not args.no_progress, map_tasks=map_tasks, workers=workers)
     summary = res.outcome.summary()
     summary.update(wall_time_s=res.wall_time_s, episodes_per_s=res.episodes_per_s, workers=res.workers,
                    behaviour=args.behaviour, controller=args.controller, seed=args.seed)
+    if res.workers is None:
+        summary["workers"] = f"cluster {args.address}"
     width = max(len(k) for k in summary)
     for k, v in summary.items():
         print(f"{k:<{width}}  {v:.4g}" if isinstance(v, float) else f"{k:<{width}}  {v}")
@@ -181,16 +200,17 @@ def _figures(args) -> int:
     return 0
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Entry point; returns the process exit code (2 on bad input)."""
-    parser = build_parser()
+def main(argv: list[str] | None = None, engine: BatchEngine | None = None) -> int:
+    """Entry point; returns the process exit code (2 on bad input). With `engine`, batches run
+    on it (its errors are its caller's to report)."""
+    parser = build_parser(engine)
     args = parser.parse_args(argv)
     logging.basicConfig(level=args.log_level, format="%(levelname)s %(name)s: %(message)s")
     try:
         if args.command == "episode":
             return _episode(args)
         if args.command == "batch":
-            return _batch(args)
+            return _batch(args, engine)
         return _figures(args)
     except ContactSimError as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -8,7 +8,8 @@ the results in argument order. Where the tasks run:
   on 127.0.0.1 only (the scheduler's HTTP server too: health checks only, the dashboard needs
   bokeh, which is not installed); torn down after the call, also on an error or Ctrl-C (any
   process of the cluster still alive then is terminated). ``workers=1`` runs the tasks in this
-  process instead (no start-up cost, same checkpoint, progress and errors).
+  process instead (no start-up cost, same checkpoint, progress and errors), and so does a
+  call with a single task left to run.
 - ``address="host:port"`` (or ``tcp://host:port``, ``tls://host:port``): an existing Dask
   scheduler (``dask scheduler`` and ``dask worker`` on the machines; every worker needs this
   project installed at the same version, see docs/engine.md). Its workers run the tasks;
@@ -44,7 +45,7 @@ from tqdm import tqdm
 from services.studies.engine_checkpoint import Checkpoint
 from services.studies.engine_errors import EngineError, EngineUsageError
 
-__all__ = ["EngineError", "EngineUsageError", "normalise_address", "run_tasks"]
+__all__ = ["EngineError", "EngineUsageError", "available_cores", "normalise_address", "run_tasks"]
 
 log = logging.getLogger(__name__)
 
@@ -70,21 +71,22 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
     """Run task_function(argument) for every argument on the engine; results in argument order.
 
     address None: a local cluster started for the call (`workers` processes, default every
-    core; 1 runs in this process), torn down after; address "host:port" (or "tcp://host:port"):
-    an existing Dask cluster. checkpoint_path: every finished task's result is appended
-    (durably, flushed) as it finishes; a call with the same checkpoint_path and the same
-    arguments skips the finished ones (resume), and refuses with an EngineUsageError if the
-    arguments differ from the checkpoint's. A tqdm progress bar with rate and ETA on stderr
-    when show_progress, counting `weights` (e.g. episodes per task, in `unit`) or tasks."""
+    core; 1, or a single task to run, runs in this process), torn down after; address
+    "host:port" (or "tcp://host:port"): an existing Dask cluster. checkpoint_path: every
+    finished task's result is appended (durably, flushed) as it finishes; a call with the same
+    checkpoint_path and the same arguments skips the finished ones (resume), and refuses with
+    an EngineUsageError if the arguments differ from the checkpoint's. A tqdm progress bar
+    with rate and ETA on stderr when show_progress, counting `weights` (e.g. episodes per
+    task, in `unit`) or tasks."""
     arguments = list(task_arguments)
     scheduler = normalise_address(address) if address is not None else None
     if scheduler is not None and workers is not None:
         raise EngineUsageError("--workers sizes the local cluster; with --address the cluster's own workers run "
                                "the tasks (drop --workers)")
-    workers = (os.cpu_count() or 1) if workers is None else int(workers)
+    workers = available_cores() if workers is None else int(workers)
     if workers < 1:
         raise EngineUsageError(f"workers must be >= 1, got {workers}")
-    sizes = [1.0] * len(arguments) if weights is None else [float(w) for w in weights]
+    sizes = [1] * len(arguments) if weights is None else list(weights)
     if len(sizes) != len(arguments):
         raise EngineUsageError(f"{len(sizes)} weights for {len(arguments)} tasks")
     checkpoint = Checkpoint.open(checkpoint_path, task_function, arguments) if checkpoint_path is not None else None
@@ -101,7 +103,7 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
         bar.update(sizes[index])
 
     try:
-        if pending and scheduler is None and workers == 1:
+        if pending and scheduler is None and (workers == 1 or len(pending) == 1):
             _run_here(task_function, arguments, pending, finished)
         elif pending:
             with _client(scheduler, min(workers, len(pending))) as client:
@@ -111,6 +113,14 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
         if checkpoint is not None:
             checkpoint.close()
     return [results[i] for i in range(len(arguments))]
+
+
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity; `os.cpu_count` where unknown)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count() or 1
 
 
 def _task_failed(index: int, argument: Any, error: BaseException) -> EngineError:
@@ -159,6 +169,8 @@ def _client(scheduler: str | None, workers: int) -> Iterator[Any]:
     processes that is torn down on exit (any of its processes left is terminated)."""
     from distributed import Client, LocalCluster
 
+    from services.studies.engine_worker import KeepFreedMemory
+
     if scheduler is not None:
         try:
             remote = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s", set_as_default=False)
@@ -167,6 +179,7 @@ def _client(scheduler: str | None, workers: int) -> Iterator[Any]:
                               f"({type(exc).__name__}); check that `dask scheduler` runs there and that this "
                               "machine may connect to it") from exc
         try:
+            remote.register_plugin(KeepFreedMemory())
             yield remote
         finally:
             remote.close(timeout=CLOSE_TIMEOUT_S)
@@ -180,6 +193,7 @@ def _client(scheduler: str | None, workers: int) -> Iterator[Any]:
                                    scheduler_port=0, dashboard_address="127.0.0.1:0", worker_dashboard_address=None,
                                    silence_logs=logging.ERROR)
             client = Client(cluster, set_as_default=False)
+            client.register_plugin(KeepFreedMemory())
         except (OSError, TimeoutError) as exc:
             raise EngineError(f"the local Dask cluster did not start ({type(exc).__name__}: {exc})") from exc
         yield client

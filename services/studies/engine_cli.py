@@ -27,7 +27,7 @@ def add_engine_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``--workers``, ``--address`` and ``--checkpoint`` (in their own group)."""
     group = parser.add_argument_group("engine (Dask; docs/engine.md)")
     where = group.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=positive_int, default=None,
+    where.add_argument("--workers", type=positive_int, default=None, metavar="N",
                        help="worker processes of the local cluster started for the run (default: every core; "
                             "1 runs everything in this process)")
     where.add_argument("--address", type=_address, default=None, metavar="HOST:PORT",

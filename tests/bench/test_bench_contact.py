@@ -20,6 +20,7 @@ from robot_sim.contact.episode import run_episode, run_vectorised
 from robot_sim.contact.plant import ContactPlant
 from robot_sim.contact.receiver import stack_receivers, taking
 
+from services.studies.engine import run_tasks
 from tests.bench._report import save, summarize, table
 
 
@@ -73,9 +74,10 @@ def test_bench_contact():
     rows.append(("one plant step (1 ms), floats", f"{s['median'] * 1e6:.1f} us", f"{s['p99'] * 1e6:.1f} us",
                  f"{1e-3 / s['median']:.0f}x"))
 
-    # 3. Monte-Carlo batch: 10 000 mixed episodes, 2 workers.
+    # 3. Monte-Carlo batch: 10 000 mixed episodes, 2 workers of the studies' engine (with its start-up).
+    on_engine = functools.partial(run_tasks, workers=2, show_progress=False)  # a local Dask cluster, 2 workers
     res = run_batch(cfg, "mixed", 10_000, functools.partial(ConstantGrip, 10.0), seed=0, workers=2,
-                    chunk_size=500, progress=False)
+                    chunk_size=500, progress=False, map_tasks=on_engine)
     per_ep_rtf = cfg.duration_s * len(res.outcome) / (res.wall_time_s * res.workers)
     results["batch_10000_mixed_2_workers"] = {"wall_s": res.wall_time_s, "episodes_per_s": res.episodes_per_s,
                                               "rtf_per_episode_per_core": per_ep_rtf,

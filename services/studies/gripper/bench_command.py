@@ -7,6 +7,8 @@
     handover-study bench -n 12000 --controllers FS1 HI SG --workers 2   # 500 per sub-population of "wide"
     handover-study bench -n 5000 --seed 1 --controllers FS1 HI SG --attribute --out out/gripper_bench_v2
     handover-study bench -n 10000 --seed 1000 --controllers HI SG --set SG:max_hold_force_n=18 --attribute
+    handover-study bench -n 100000 --controllers SG --checkpoint out/bench_ckpt   # rerun it to resume
+    handover-study bench -n 1000000 --controllers SG --address 10.0.0.5:8786     # on a Dask cluster
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from pathlib import Path
 from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
 from services.runtime.cli import positive_int
+from services.studies.engine_cli import add_engine_arguments, engine_options
 from services.studies.gripper import oracle_command
 from services.studies.gripper.bench_report import (
     attribution_table,
@@ -77,7 +80,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "benchmark's: reproduces its figures); see services/studies/gripper/populations.py")
     p.add_argument("--grippers", nargs="+", choices=list(GRIPPER_CLASSES), default=None, metavar="CLASS",
                    help=f"gripper classes instead of the population's, equal shares ({', '.join(GRIPPER_CLASSES)})")
-    p.add_argument("--workers", type=positive_int, default=None, help="processes (default: all cores)")
     p.add_argument("--chunk-size", type=positive_int, default=250, help="episodes per vectorised chunk")
     p.add_argument("--out", type=Path, default=Path("out/gripper_bench"),
                    help="folder for table.md, results.csv, plots")
@@ -92,6 +94,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument("--log-level", default="warning", choices=["debug", "info", "warning", "error"])
     oracle_command.add_bench_arguments(p)
+    add_engine_arguments(p)
 
 
 def _paired_drop_tests(result) -> list[dict]:
@@ -121,9 +124,10 @@ def run(args: argparse.Namespace) -> int:
         for name, params in overrides.items():
             make_controller(name, **params)  # refuse an unknown parameter before any episode runs
         dist = population(args.population, args.grippers)
-        result = run_benchmark(args.controllers, args.episodes, seed=args.seed, workers=args.workers,
-                               chunk_size=args.chunk_size, progress=not args.no_progress, attribute=args.attribute,
-                               overrides=overrides, dist=dist)
+        engine = engine_options(args, "bench")
+        result = run_benchmark(args.controllers, args.episodes, seed=args.seed, chunk_size=args.chunk_size,
+                               progress=engine.pop("show_progress"), attribute=args.attribute, overrides=overrides,
+                               dist=dist, **engine)
     except GripperError as exc:
         print(f"handover-study bench: error: {exc}", file=sys.stderr)
         return 2

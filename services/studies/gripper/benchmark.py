@@ -27,20 +27,23 @@ Usage:
     handover-study bench                      # CI-sized: 200 episodes each
     handover-study bench -n 10000 --workers 2 --out out/gripper_bench
     handover-study bench --controllers FS1 HI SG -n 2000 --seed 7
+    handover-study bench -n 1000000 --controllers SG --address 10.0.0.5:8786 --checkpoint out/bench_ckpt
+
+The chunks (one controller × one chunk each) run on the studies' engine
+(`services.studies.engine.run_tasks`, Dask: a local cluster by default, `--address` a real
+one, `--checkpoint` to resume); results do not depend on where or in which order they run.
 """
 
 from __future__ import annotations
 
 import logging
 import math
-import multiprocessing as mp
-import os
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from scipy import stats
-from tqdm import tqdm
 
 from robot_sim.contact.outcome import BatchOutcome
 from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
@@ -53,6 +56,7 @@ from services.studies.gripper.attribution import (
     paired_overshoot,
     run_attributed,
 )
+from services.studies.engine import run_tasks
 from services.studies.gripper.episodes import BEHAVIOUR_NAMES, GRIPPER_CODES, EpisodeDistribution, sample_chunk
 from services.studies.gripper.populations import (
     DEFAULT_POPULATION,
@@ -121,9 +125,11 @@ def _run_job(args) -> tuple[str, int, BatchOutcome, dict]:
 
 def run_benchmark(controllers: list[str], n_episodes: int, seed: int = 1, workers: int | None = None,
                   chunk_size: int = 250, dist: EpisodeDistribution | str | None = None, progress: bool = True,
-                  overrides: dict[str, dict] | None = None, attribute: bool = False) -> BenchResult:
+                  overrides: dict[str, dict] | None = None, attribute: bool = False, address: str | None = None,
+                  checkpoint_path: Path | None = None) -> BenchResult:
     """Run `n_episodes` episodes per controller (the same episodes for all), drawn from `dist`
-    (a distribution, or the name of one of `POPULATIONS`; default "wide").
+    (a distribution, or the name of one of `POPULATIONS`; default "wide"), on the engine
+    (`workers`, `address`, `checkpoint_path`: see `services.studies.engine.run_tasks`).
 
     With `attribute`, the two references of `services.studies.gripper.attribution` run on the same
     episodes too (`max-hold`, `reactive-max-hold`), so each drop can be attributed."""
@@ -137,9 +143,6 @@ def run_benchmark(controllers: list[str], n_episodes: int, seed: int = 1, worker
     unknown = [c for c in controllers if c not in CONTROLLER_NAMES and c not in REFERENCES]
     if unknown or not controllers:
         raise GripperError(f"unknown controller(s) {unknown}; choose from: {', '.join(CONTROLLER_NAMES)}")
-    workers = (os.cpu_count() or 1) if workers is None else int(workers)
-    if workers < 1:
-        raise GripperError(f"workers must be >= 1, got {workers}")
     if not isinstance(dist, EpisodeDistribution):
         dist = population(DEFAULT_POPULATION if dist is None else dist)
     pop_name = next((k for k, d in POPULATIONS.items() if d == dist), "custom")
@@ -150,23 +153,12 @@ def run_benchmark(controllers: list[str], n_episodes: int, seed: int = 1, worker
     parts: dict[str, dict[int, BatchOutcome]] = {c: {} for c in controllers}
     draws: dict[int, dict] = {}
     t0 = time.perf_counter()
-    bar = tqdm(total=n_episodes * len(controllers), unit="ep", disable=not progress, desc="gripper benchmark")
-    try:
-        if workers == 1 or len(jobs) == 1:
-            results = map(_run_job, jobs)
-            for name, i, out, d in results:
-                parts[name][i] = out
-                draws[i] = d
-                bar.update(len(out))
-        else:
-            method = "fork" if "fork" in mp.get_all_start_methods() else "spawn"
-            with mp.get_context(method).Pool(processes=min(workers, len(jobs))) as pool:
-                for name, i, out, d in pool.imap_unordered(_run_job, jobs):
-                    parts[name][i] = out
-                    draws[i] = d
-                    bar.update(len(out))
-    finally:
-        bar.close()
+    results = run_tasks(_run_job, jobs, address=address, workers=workers, description="gripper benchmark",
+                        checkpoint_path=checkpoint_path, show_progress=progress, unit="ep",
+                        weights=[job[1].size for job in jobs])
+    for name, i, out, d in results:
+        parts[name][i] = out
+        draws[i] = d
     wall = time.perf_counter() - t0
     cat = lambda key: np.concatenate([draws[i][key] for i in range(len(sizes))])  # noqa: E731
     outcomes = {c: BatchOutcome.concatenate([parts[c][i].outcome for i in range(len(sizes))]) for c in controllers}

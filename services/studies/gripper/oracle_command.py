@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 import sys
 import time
 from dataclasses import asdict
@@ -21,6 +20,7 @@ from pathlib import Path
 
 from services.gripper.errors import GripperError
 from services.runtime.cli import positive_int
+from services.studies.engine_cli import engine_options
 from services.studies.gripper.benchmark import TUNING_SEED, BenchResult
 from services.studies.gripper.episodes import BEHAVIOUR_NAMES, EpisodeDistribution
 from services.studies.gripper.oracle_family import PARAMS_PATH, TunedFamily, bench_chunks, tune
@@ -101,9 +101,9 @@ def report_bench(args: argparse.Namespace, result: BenchResult, dist: EpisodeDis
         return
     from services.studies.gripper.oracle_report import oracle_summary, run_oracle
 
-    workers = args.workers if args.workers is not None else (os.cpu_count() or 1)
-    oracle = run_oracle(result, args.episodes, chunk_size=args.chunk_size, dist=dist, workers=workers,
-                        search=max(0, int(args.oracle_search)))
+    engine = engine_options(args, "oracle")
+    oracle = run_oracle(result, args.episodes, chunk_size=args.chunk_size, dist=dist,
+                        search=max(0, int(args.oracle_search)), **engine)
     text, paths = oracle_summary(result, oracle, args.out)
     print("\n" + text)
     for path in paths:

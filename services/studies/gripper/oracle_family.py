@@ -150,21 +150,30 @@ def bench_chunks(seed: int, n_episodes: int, chunk_size: int,
     """The chunks of a `handover-study bench` run of `dist` (a distribution or a population's
     name; default the bench's) and their sensor-noise seeds, drawn exactly as
     `benchmark.run_benchmark` draws them (`oracle_report` checks the draws against the run)."""
-    if not isinstance(dist, EpisodeDistribution):
-        dist = population(DEFAULT_POPULATION if dist is None else dist)
-    chunks = []
-    for plan in plan_chunks(dist, n_episodes, chunk_size, seed):
-        seq = plan.seed
-        draw_seq, noise_seq = np.random.SeedSequence(seq.entropy, spawn_key=seq.spawn_key).spawn(2)
-        chunk = sample_chunk(dist, plan.size, np.random.default_rng(draw_seq), gripper=plan.gripper, kinds=plan.kinds)
-        chunks.append((chunk, noise_seq))
-    return chunks
+    dist = _distribution(dist)
+    return [_draw(dist, plan) for plan in plan_chunks(dist, n_episodes, chunk_size, seed)]
 
 
 def bench_chunk(seed: int, n_episodes: int, chunk_size: int, index: int,
                 dist: EpisodeDistribution | str | None = None) -> tuple[ChunkSpec, np.random.SeedSequence]:
-    """Chunk `index` of `bench_chunks`."""
-    return bench_chunks(seed, n_episodes, chunk_size, dist)[index]
+    """Chunk `index` of `bench_chunks` (only that chunk is drawn)."""
+    dist = _distribution(dist)
+    return _draw(dist, plan_chunks(dist, n_episodes, chunk_size, seed)[index])
+
+
+def _distribution(dist: EpisodeDistribution | str | None) -> EpisodeDistribution:
+    if isinstance(dist, EpisodeDistribution):
+        return dist
+    return population(DEFAULT_POPULATION if dist is None else dist)
+
+
+def _draw(dist: EpisodeDistribution, plan) -> tuple[ChunkSpec, np.random.SeedSequence]:
+    """One planned chunk's episodes and its sensor-noise seed (a fresh copy of the plan's seed:
+    `spawn` counts its children)."""
+    seq = plan.seed
+    draw_seq, noise_seq = np.random.SeedSequence(seq.entropy, spawn_key=seq.spawn_key).spawn(2)
+    chunk = sample_chunk(dist, plan.size, np.random.default_rng(draw_seq), gripper=plan.gripper, kinds=plan.kinds)
+    return chunk, noise_seq
 
 
 @dataclass(frozen=True)

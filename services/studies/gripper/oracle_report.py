@@ -22,7 +22,6 @@ Wilson intervals (`benchmark.wilson_ci`).
 from __future__ import annotations
 
 import math
-import multiprocessing as mp
 import time
 import warnings
 from dataclasses import dataclass
@@ -34,6 +33,7 @@ from scipy import stats
 from robot_sim.contact.episode import run_vectorised
 from robot_sim.contact.outcome import BatchOutcome
 from services.gripper.errors import GripperError
+from services.studies.engine import run_tasks
 from services.studies.gripper.benchmark import REFERENCES, BenchResult, wilson_ci
 from services.studies.gripper.episodes import BEHAVIOUR_NAMES, EpisodeDistribution
 from services.studies.gripper.oracle import ClairvoyantResult, clairvoyant_bound
@@ -78,8 +78,11 @@ def _oracle_job(args) -> tuple[int, ClairvoyantResult, BatchOutcome, BatchOutcom
 
 
 def run_oracle(result: BenchResult, n_episodes: int, chunk_size: int = 250, dist: EpisodeDistribution | None = None,
-               workers: int = 1, params_path: Path = PARAMS_PATH, search: int = 64) -> OracleResult:
-    """The bounds on the episodes of `result` (a run of `n_episodes` with `chunk_size`)."""
+               workers: int | None = 1, params_path: Path = PARAMS_PATH, search: int = 64, address: str | None = None,
+               checkpoint_path: Path | None = None, show_progress: bool = False) -> OracleResult:
+    """The bounds on the episodes of `result` (a run of `n_episodes` with `chunk_size`), chunk
+    by chunk on the engine (`workers`, `address`, `checkpoint_path`: see
+    `services.studies.engine.run_tasks`)."""
     tuned = TunedFamily.load(params_path)
     dist = dist if dist is not None else result.dist
     draws = [chunk for chunk, _noise in bench_chunks(result.seed, n_episodes, chunk_size, dist)]
@@ -91,13 +94,9 @@ def run_oracle(result: BenchResult, n_episodes: int, chunk_size: int = 250, dist
                            "benchmark.run_benchmark and oracle_family.bench_chunk no longer agree")
     jobs = [(result.seed, n_episodes, chunk_size, i, dist, tuned, search) for i in range(n_chunks)]
     t0 = time.perf_counter()
-    if workers <= 1 or n_chunks == 1:
-        parts = list(map(_oracle_job, jobs))
-    else:
-        method = "fork" if "fork" in mp.get_all_start_methods() else "spawn"
-        with mp.get_context(method).Pool(processes=min(workers, n_chunks)) as pool:
-            parts = pool.map(_oracle_job, jobs)
-    parts.sort(key=lambda p: p[0])
+    parts = run_tasks(_oracle_job, jobs, address=address, workers=workers, description="oracle bound",
+                      checkpoint_path=checkpoint_path, show_progress=show_progress, unit="ep",
+                      weights=[c.behaviour.size for c in draws])
     return OracleResult(clairvoyant=ClairvoyantResult.concatenate([p[1] for p in parts]),
                         family=BatchOutcome.concatenate([p[2] for p in parts]),
                         family_capped=BatchOutcome.concatenate([p[3] for p in parts]),

@@ -8,7 +8,7 @@ import sys
 
 import pytest
 
-from robot_sim.contact.cli import main
+from services.studies.contact_command import main
 
 
 def test_episode_writes_json_and_plot(tmp_path, capsys):

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from robot_sim.contact.batch import chunk_receivers, run_batch
+from services.studies.engine import run_tasks
 from robot_sim.contact.config import SensorParams
 from robot_sim.contact.controllers import ConstantGrip, ReleaseAfter
 from robot_sim.contact.episode import run_episode, run_vectorised
@@ -108,7 +109,8 @@ def test_batch_is_repeatable_and_independent_of_worker_count():
     cfg = quiet_config(duration_s=1.5, sensors=SensorParams(ft_noise_std_n=0.05, accel_noise_std_m_s2=0.5))
     factory = functools.partial(ConstantGrip, 8.0)
     one = run_batch(cfg, "mixed", 60, factory, seed=4, workers=1, chunk_size=20, progress=False)
-    two = run_batch(cfg, "mixed", 60, factory, seed=4, workers=2, chunk_size=20, progress=False)
+    on_engine = functools.partial(run_tasks, workers=2, show_progress=False)  # a local Dask cluster
+    two = run_batch(cfg, "mixed", 60, factory, seed=4, chunk_size=20, progress=False, map_tasks=on_engine)
     other = run_batch(cfg, "mixed", 20, factory, seed=5, workers=1, chunk_size=20, progress=False)
     for f in fields(one.outcome):
         a, b = getattr(one.outcome, f.name), getattr(two.outcome, f.name)

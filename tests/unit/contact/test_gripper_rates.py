@@ -84,10 +84,10 @@ def test_the_default_setup_is_the_slow_gripper_and_bad_rates_are_refused():
 def test_batch_runner_warns_when_the_controller_is_slower_than_a_fast_loop(caplog):
     cfg = quiet_config(duration_s=0.05).with_gripper_rates(500.0, 250.0)
     with caplog.at_level(logging.WARNING, logger="robot_sim.contact.batch"):
-        run_batch(cfg, "drag", 2, functools.partial(ConstantGrip, 10.0, period_s=0.01), workers=1, progress=False)
+        run_batch(cfg, "drag", 2, functools.partial(ConstantGrip, 10.0, period_s=0.01), progress=False)
     assert "latches every 0.004 s" in caplog.text
     caplog.clear()
     with caplog.at_level(logging.WARNING, logger="robot_sim.contact.batch"):
         res = run_batch(cfg, "drag", 2, functools.partial(ConstantGrip, 10.0, period_s=cfg.control_period_s),
-                        workers=1, progress=False)
+                        progress=False)
     assert caplog.text == "" and len(res.outcome) == 2

@@ -30,6 +30,8 @@ COMMANDS = [
     ("services.bridge.baxter.cli", ["--help"]),
     ("services.bridge.baxter.fake", ["--help"]),
     ("robot_sim.contact.cli", ["--help"]),
+    ("services.studies.contact_command", ["--help"]),
+    ("services.studies.contact_command", ["batch", "--help"]),
 ]
 
 

@@ -46,8 +46,9 @@ def whereabouts(main_pid: int) -> dict:
 
 
 def slow_pid(argument: tuple[int, str]) -> int:
-    """Writes this worker's pid to the folder, sleeps 0.4 s, returns x."""
+    """Writes this worker's pid to the folder, sleeps 0.4 s, marks x done, returns x."""
     x, folder = argument
     (Path(folder) / f"pid-{os.getpid()}").write_text("")
     time.sleep(0.4)
+    (Path(folder) / f"done-{x}").write_text("")
     return x

@@ -150,9 +150,9 @@ def test_ctrl_c_tears_the_local_cluster_down_and_keeps_the_checkpoint(tmp_path):
     proc = subprocess.Popen([sys.executable, "-c", script], cwd=ROOT, env=env, stderr=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and len(list(tmp_path.glob("pid-*"))) < 2:
+        while time.monotonic() < deadline and len(list(tmp_path.glob("done-*"))) < 4:
             time.sleep(0.1)
-        time.sleep(1.0)  # a few results in the checkpoint
+        time.sleep(0.5)  # their results in the checkpoint
         family = {p.pid for p in psutil.Process(proc.pid).children(recursive=True)}
         proc.send_signal(signal.SIGINT)
         proc.wait(timeout=30)
@@ -165,7 +165,7 @@ def test_ctrl_c_tears_the_local_cluster_down_and_keeps_the_checkpoint(tmp_path):
     assert not [p for p in family if _alive(p)]
     kept = Checkpoint.open(ckpt, T.slow_pid, _args_of(tmp_path))
     kept.close()
-    assert 2 <= len(kept.done) < 200 and all(kept.done[i] == i for i in kept.done)
+    assert 1 <= len(kept.done) < 200 and all(kept.done[i] == i for i in kept.done)
 
 
 @pytest.mark.parametrize("text, expected", [("10.0.0.5:8786", "tcp://10.0.0.5:8786"),
