@@ -109,12 +109,15 @@ class SimClock:
         self._now_ns = 0
         self._cond = threading.Condition()
         self._named_step = -1  # the latest step that named this participant
+        self._named_time_ns = 0  # and its time
         self._acted_step = -1  # the step this participant last answered
         self._events = False
         self._ready_pub: Any = None
         self._stopping: threading.Event | None = None
         self._participating = False
         self._last_answer: dict[str, Any] | None = None
+        self._stamp_ahead_ns = 0  # `answer_early`: this step's messages are stamped this much later
+        self._answered = False  # `answer_early` already answered the current step
         self.steps = 0  # steps that named this participant
 
     def attach(self, node: ServiceNode) -> None:
@@ -132,12 +135,12 @@ class SimClock:
         self.on_grant(grant.step, grant.time_ns, self.name in grant.due)
 
     def on_grant(self, step: int, time_ns: int, named: bool) -> None:
-        """Step `step` at `time_ns` (ns) began; `named`: this participant must act at it."""
+        """Step `step` at `time_ns` (ns) began; `named`: this participant must act at it. Its
+        time moves when its `wait` takes the step, not here: a participant still at work on
+        the last one (after `answer_early`) keeps that one's time and stamps."""
         with self._cond:
-            if time_ns > self._now_ns:
-                self._now_ns = time_ns
             if named and step > self._named_step:
-                self._named_step = step
+                self._named_step, self._named_time_ns = step, time_ns
                 self._cond.notify_all()
 
     def now_ns(self) -> int:
@@ -147,6 +150,23 @@ class SimClock:
     def now_s(self) -> float:
         """Simulated time, s."""
         return self._now_ns / 1e9
+
+    def stamp_ns(self) -> int:
+        """The stamp of what this participant sends now, ns: the simulated time, or later after
+        `answer_early`."""
+        return self._now_ns + self._stamp_ahead_ns
+
+    def answer_early(self, latency_s: float) -> None:
+        """Answer the current step before its work is done, for a participant whose results
+        take `latency_s` (s, > 0) of simulated time, as a sensor pipeline's do: it is done with
+        now and next needs the clock at ``now + latency_s``, and what it sends until its next
+        step is stamped ``now + latency_s``. The clock goes on meanwhile (other participants'
+        steps run while it computes), and cannot pass ``now + latency_s`` before it has sent its
+        results and answered again. Its inputs stay those stamped before now."""
+        ahead_ns = max(1, seconds_to_ns(latency_s))
+        self._participating = True
+        self._send_ready(self._now_ns + ahead_ns)
+        self._stamp_ahead_ns, self._answered = ahead_ns, True
 
     def note_event(self) -> None:
         """This participant sent an event in the current step (said in its next ready)."""
@@ -170,7 +190,10 @@ class SimClock:
         # that asks for 0, must see time move, or it would spin at one instant.
         next_ns = self._now_ns + max(1, seconds_to_ns(timeout_s))
         self._participating = True
-        self._send_ready(next_ns)
+        if self._answered:  # `answer_early` said when it next needs the clock
+            self._answered = False
+        else:
+            self._send_ready(next_ns)
         repeat_at_s = time.monotonic() + (STOP_POLL_S if self._named_step < 0 else REPEAT_ANSWER_S)
         with self._cond:
             while self._named_step <= self._acted_step:
@@ -182,6 +205,8 @@ class SimClock:
                     self._ready_pub.put(**self._last_answer)  # see REPEAT_ANSWER_S
                     repeat_at_s = time.monotonic() + (STOP_POLL_S if self._named_step < 0 else REPEAT_ANSWER_S)
             self._acted_step = self._named_step
+            self._now_ns = max(self._now_ns, self._named_time_ns)
+        self._stamp_ahead_ns = 0
         self.steps += 1
         return True
 

@@ -138,6 +138,9 @@ class ClockOwner:
     def now_s(self) -> float:
         return self.barrier.now_ns / 1e9
 
+    def stamp_ns(self) -> int:
+        return self.barrier.now_ns
+
     def note_event(self) -> None:
         """The owner sent an event: the next step is an event step, as for a participant's."""
         with self._cond:

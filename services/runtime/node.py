@@ -181,7 +181,7 @@ class ServiceNode:
         self._opened_s = time.monotonic()
         if not isinstance(self.clock, WallClock):
             self.clock.attach(self)
-            SENDER_CLOCK.follow(self.clock.now_ns)
+            SENDER_CLOCK.follow(self.clock.stamp_ns)
         self._heartbeat_pub = self.publisher(HEARTBEAT, own_stamps=True)
         self.heartbeat()
         threading.Thread(target=self._beat_forever, name=f"{self.name} heartbeat", daemon=True).start()

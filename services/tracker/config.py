@@ -69,6 +69,10 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
             (a recorder with ``depth_every`` ≥ 1 records it; nothing else reads it).
         ros1: the ROS 1 Kinect of ``sensor = "ros1"`` (`Ros1KinectConfig`: topics, key
             mapping, the calibration file, the receiver's choice).
+        sim_clock_latency_s: on the simulation clock (docs/sim_clock.md), the simulated time
+            a frame's results take, s: what the tracker publishes for a frame taken at t is
+            stamped t + this, and the rest of the stack steps on while it computes. 0: the
+            clock waits for each frame's work (results stamped t). Less than a frame period.
     """
 
     lag_correction: bool = True
@@ -102,6 +106,7 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
     sim_kinect: KinectConfig = msgspec.field(default_factory=KinectConfig)
     publish_depth: bool = False
     ros1: Ros1KinectConfig = msgspec.field(default_factory=Ros1KinectConfig)
+    sim_clock_latency_s: float = 0.03
 
     def __post_init__(self) -> None:
         checks = [
@@ -119,6 +124,8 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
             (0.0 <= self.robot_point_margin_m <= 0.2, "robot_point_margin_m must be in 0..0.2 m"),
             (0.0 <= self.gripper_clearance_radius_m <= 0.3, "gripper_clearance_radius_m must be in 0..0.3 m"),
             (self.skeleton_timeout_s > 0.0, "skeleton_timeout_s must be > 0"),
+            (0.0 <= self.sim_clock_latency_s < 1.0 / self.sim_kinect.rate_hz,
+             "sim_clock_latency_s must be >= 0 and shorter than a frame of the simulated Kinect"),
             (self.depth_max_age_s > 0.0, "depth_max_age_s must be > 0"),
             (self.joint_state_timeout_s > 0.0, "joint_state_timeout_s must be > 0"),
             (1 <= self.body_window_frames <= 10000, "body_window_frames must be in 1..10000"),

@@ -20,6 +20,7 @@ from bus_schema import topics as T
 from handover_model.baxter import RIGHT_ARM_JOINTS
 from handover_model.robot_geometry import ArmGeometry
 from services.runtime import ServiceNode
+from services.runtime.clock import SimClock
 from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.profile import Profile
 from services.tracker.config import TrackerConfig
@@ -143,7 +144,10 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
                  extra=kv(rate_hz=rate_hz))
         last_publish = 0.0
         last_status = None
+        clock = node.clock
         for _tick in node.loop(rate_hz):
+            if isinstance(clock, SimClock) and config.sim_clock_latency_s > 0.0:
+                clock.answer_early(config.sim_clock_latency_s)  # the clock steps on while this frame is computed
             now = node.clock.now_s()
             ended = not inputs.feed(feeder, now)  # a replay's end: its last frames still count
             det = pipe.detect_object()

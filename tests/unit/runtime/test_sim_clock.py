@@ -100,8 +100,8 @@ def test_a_participant_answers_then_waits_for_a_step_that_names_it():
     thread.start()
     assert wait_until(lambda: sent.answers, 2.0)
     assert sent.answers[0]["done_ns"] == 0 and sent.answers[0]["next_ns"] == 10_000_000
-    clock.on_grant(1, 5_000_000, named=False)  # a step for somebody else: keep waiting
-    assert not returned.wait(0.2) and clock.now_ns() == 5_000_000
+    clock.on_grant(1, 5_000_000, named=False)  # a step for somebody else: keep waiting, time unmoved
+    assert not returned.wait(0.2) and clock.now_ns() == 0
     clock.note_event()
     clock.on_grant(2, 10_000_000, named=True)
     assert returned.wait(2.0) and clock.now_ns() == 10_000_000 and clock.steps == 1
@@ -116,6 +116,23 @@ def test_a_participant_answers_then_waits_for_a_step_that_names_it():
     clock.on_grant(3, 10_000_001, named=True)
     again.join(2.0)
     assert not again.is_alive() and clock.now_ns() == 10_000_001
+
+
+def test_answer_early_lets_the_clock_go_on_while_the_results_are_computed():
+    """A sensor pipeline answers at once with its latency: the owner may step others meanwhile;
+    what it sends is stamped at now + latency, and a step that names it while it is still at
+    work changes neither its time nor its stamps until its wait takes that step."""
+    clock = SimClock("tracker")
+    sent = clock._ready_pub = _Sent()
+    clock.answer_early(0.020)
+    assert sent.answers[-1]["done_ns"] == 0 and sent.answers[-1]["next_ns"] == 20_000_000
+    assert clock.stamp_ns() == 20_000_000 and clock.now_ns() == 0
+    clock.on_grant(5, 20_000_000, named=True)  # the owner got there before the work was done
+    assert clock.now_ns() == 0 and clock.stamp_ns() == 20_000_000
+    answers = len(sent.answers)
+    assert clock.wait(0.0333)  # the step is taken at once; no second answer for the same step
+    assert len(sent.answers) == answers
+    assert clock.now_ns() == 20_000_000 and clock.stamp_ns() == 20_000_000
 
 
 def _sim(profile):
