@@ -136,3 +136,20 @@ def is_input_error(exc: ServiceError) -> bool:
 
     return isinstance(exc, ProfileError) or getattr(exc, "bad_input", False)
 
+
+
+def run_subcommand(prog: str, args: argparse.Namespace, interrupted_hint: str = "") -> int:
+    """Run an offline tool's subcommand (``args.func(args)``; ``args.command`` names it) with
+    the tools' one error policy: a `ServiceError` is one line and exit 2 (bad input) or 1, an
+    `OSError` one line and exit 1, Ctrl-C one line (with `interrupted_hint`) and exit 130."""
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print(f"{prog} {args.command}: interrupted{interrupted_hint}", file=sys.stderr)
+        return 130
+    except ServiceError as exc:
+        print(f"{prog} {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT if is_input_error(exc) else EXIT_FAILURE
+    except OSError as exc:
+        print(f"{prog} {args.command}: error: {exc}", file=sys.stderr)
+        return EXIT_FAILURE

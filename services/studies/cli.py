@@ -18,12 +18,10 @@ from __future__ import annotations
 
 import argparse
 import logging
-import sys
 from collections.abc import Callable
 from types import ModuleType
 
-from services.runtime.cli import HelpFormatter, is_input_error, one_line_parser
-from services.runtime.errors import ServiceError
+from services.runtime.cli import HelpFormatter, one_line_parser, run_subcommand
 
 PROG = "handover-study"
 
@@ -65,14 +63,4 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of `handover-study`; returns the exit code."""
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
-    try:
-        return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        print(f"{PROG} {args.command}: interrupted", file=sys.stderr)
-        return 130
-    except ServiceError as exc:
-        print(f"{PROG} {args.command}: error: {exc}", file=sys.stderr)
-        return 2 if is_input_error(exc) else 1
-    except OSError as exc:
-        print(f"{PROG} {args.command}: error: {exc}", file=sys.stderr)
-        return 1
+    return run_subcommand(PROG, args)

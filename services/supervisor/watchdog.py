@@ -59,7 +59,8 @@ class Fault:
         service: the service's name.
         what: ``lost`` (liveliness gone) or ``silent``.
         detail: one line (e.g. ``no heartbeat for 0.21 s``).
-        noticed_s: local monotonic time of the notice, s.
+        noticed_s: local time of the notice, s (a heartbeat's silence: on the wall clock, as
+            `since_s`; on the simulation clock the other faults are on simulated time).
         since_s: when the problem began (liveliness loss, or the last message), s.
     """
 
@@ -250,7 +251,7 @@ class Watchdog:
         quiet_s = 0.0  # of the owned streams
         fault, on_wall = None, True
         if w.last_beat_s is not None and beat_quiet_s > timeout_s:
-            fault = Fault(name, "silent", f"silent: no heartbeat for {beat_quiet_s:.3f} s", now_s, w.last_beat_s)
+            fault = Fault(name, "silent", f"silent: no heartbeat for {beat_quiet_s:.3f} s", wall_s, w.last_beat_s)
         else:
             on_wall = wall_s == now_s
             for suffix, at_s in w.streams.items():
@@ -261,7 +262,7 @@ class Watchdog:
         if (fault is None and w.last_beat_s is not None and self.excuser is not None
                 and beat_quiet_s > self.stopped_after_s and self.excuser.stopped(name, wall_s)):
             fault = Fault(name, "silent", f"silent: no heartbeat for {beat_quiet_s:.3f} s, its process is stopped",
-                          now_s, w.last_beat_s)
+                          wall_s, w.last_beat_s)
             return fault, False, True
         if self.excuser is not None and (beat_quiet_s > self.note_after_s or quiet_s > self.stream_note_after_s):
             self.excuser.note(name, wall_s, wall_s - max(quiet_s, beat_quiet_s))

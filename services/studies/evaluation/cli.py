@@ -23,8 +23,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from services.runtime.cli import HelpFormatter, is_input_error, one_line_parser, positive_int
-from services.runtime.errors import ServiceError
+from services.runtime.cli import HelpFormatter, one_line_parser, positive_int, run_subcommand
 from services.studies.evaluation.errors import EvaluationError
 
 PROG = "handover-eval"
@@ -160,18 +159,8 @@ def _cmd_replay(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of `handover-eval`; the exit code."""
     args = build_parser().parse_args(argv)
-    try:
-        return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        print(f"{PROG} {args.command}: interrupted (continue with --resume: finished episodes are kept)"
-              if args.command == "run" else f"{PROG} {args.command}: interrupted", file=sys.stderr)
-        return 130
-    except ServiceError as exc:
-        print(f"{PROG} {args.command}: error: {exc}", file=sys.stderr)
-        return 2 if is_input_error(exc) else 1
-    except OSError as exc:
-        print(f"{PROG} {args.command}: error: {exc}", file=sys.stderr)
-        return 1
+    hint = " (continue with --resume: finished episodes are kept)" if args.command == "run" else ""
+    return run_subcommand(PROG, args, hint)
 
 
 if __name__ == "__main__":

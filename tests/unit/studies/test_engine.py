@@ -150,9 +150,13 @@ def test_ctrl_c_tears_the_local_cluster_down_and_keeps_the_checkpoint(tmp_path):
     proc = subprocess.Popen([sys.executable, "-c", script], cwd=ROOT, env=env, stderr=subprocess.PIPE)
     try:
         deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and len(list(tmp_path.glob("done-*"))) < 4:
+        # Both workers have run tasks, and finished results are in the checkpoint (a loaded
+        # machine may take a while for either).
+        while time.monotonic() < deadline and (len(list(tmp_path.glob("done-*"))) < 4
+                                               or len(list(tmp_path.glob("pid-*"))) < 2
+                                               or not ckpt.exists() or ckpt.stat().st_size == 0):
             time.sleep(0.1)
-        time.sleep(0.5)  # their results in the checkpoint
+        time.sleep(0.5)
         family = {p.pid for p in psutil.Process(proc.pid).children(recursive=True)}
         proc.send_signal(signal.SIGINT)
         proc.wait(timeout=30)
