@@ -21,6 +21,7 @@ from robot_sim.kinect.receiver import KNEE_HEIGHT_RATIO, BodySize
 from services.planner.anthropometrics import BodyDimensions
 from services.planner.config import load_config
 from services.planner.core import ReceiverInput, plan_for_receiver
+from services.planner.errors import PlannerError
 from services.studies.evaluation.population import EpisodeDraw
 
 
@@ -34,10 +35,15 @@ def true_receiver(draw: EpisodeDraw, use_measured_shoulder_height: bool = True) 
     return ReceiverInput(body=body, shoulder_x_task_m=shoulder_x_task_m, shoulder_height_m=shoulder)
 
 
-def djt_optimum_base_m(draw: EpisodeDraw, planner_config: dict[str, Any]) -> np.ndarray:
+def djt_optimum_base_m(draw: EpisodeDraw, planner_config: dict[str, Any]) -> np.ndarray | None:
     """The DJT transfer point (`base`, m) for the true receiver and object of `draw`, with the
-    planner configuration `planner_config` (the profile's ``[services.planner.config]``)."""
+    planner configuration `planner_config` (the profile's ``[services.planner.config]``); None
+    when no point is reachable by both the robot and that receiver (a receiver drawn too far or
+    too small for the scene: the episode has no reference, its transfer-point error is n/a)."""
     cfg = load_config(planner_config)
     receiver = true_receiver(draw, cfg.model.use_measured_shoulder_height)
-    plan = plan_for_receiver(cfg, receiver, draw.object_mass_kg)
+    try:
+        plan = plan_for_receiver(cfg, receiver, draw.object_mass_kg)
+    except PlannerError:
+        return None
     return np.asarray(plan.position_base_m, dtype=float)
