@@ -12,6 +12,8 @@ import time
 import pytest
 
 from bus_schema import MAX_PAYLOAD_BYTES
+from bus_schema.codec import DecodeError, decode
+from bus_schema.messages.supervisor import Heartbeat
 from services.launcher.processes import RouterProcess
 from services.runtime.zenoh_config import zenoh_config_dict
 from services.runtime.testing import client_session, loopback_profile, wait_until
@@ -55,8 +57,13 @@ def test_a_payload_above_the_cap_never_reaches_a_subscriber_and_the_bus_goes_on(
     assert _received([1000, 5 << 20, 10]) == [1000, 10]
 
 
-@pytest.mark.xfail(strict=True, reason="Zenoh 1.10.2 enforces transport.link.rx.max_message_size only until "
-                   "a first fragmented message of an allowed size was taken in on the link; the decoders' cap "
-                   "(bus_schema.codec) still refuses the payload. Strict: this fails once Zenoh enforces it.")
-def test_the_cap_holds_after_a_large_allowed_message():
-    assert _received([MAX_PAYLOAD_BYTES - 4096, 5 << 20, 10]) == [MAX_PAYLOAD_BYTES - 4096, 10]
+def test_after_a_large_allowed_message_an_oversized_one_is_refused_by_the_bus_or_the_decoder():
+    """Zenoh 1.10.2 enforces `transport.link.rx.max_message_size` only until a first fragmented
+    message of an allowed size was taken in on the link, and not always then (it varies from run to
+    run). What the stack guarantees is checked: order is kept, the bus goes on, and whatever
+    oversized payload gets through is refused by the decoders' cap (`bus_schema.codec`)."""
+    allowed, oversized = MAX_PAYLOAD_BYTES - 4096, 5 << 20
+    got = _received([allowed, oversized, 10])
+    assert got in ([allowed, 10], [allowed, oversized, 10]), got
+    with pytest.raises(DecodeError, match="exceeds"):
+        decode(Heartbeat, b"x" * oversized)
