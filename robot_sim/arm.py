@@ -18,12 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, JointLimits, arm_model
+from handover_model import robots
+from handover_model.robots import JointLimits
 
 
 @dataclass
 class ArmState:
-    """Joint positions (rad) and velocities (rad/s), in `RIGHT_ARM_JOINTS` order."""
+    """Joint positions (rad) and velocities (rad/s), in the arm's joint order."""
 
     position_rad: np.ndarray
     velocity_rad_s: np.ndarray
@@ -34,8 +35,8 @@ class SimulatedArm:
 
     Args:
         time_constant_s: servo lag τ (s), > 0.
-        limits: joint limits (default: Baxter's URDF limits).
-        initial_position_rad: start posture (default: `RIGHT_ARM_HOME_RAD`).
+        limits: joint limits (default: the active arm's).
+        initial_position_rad: start posture (default: the active arm's home posture).
     """
 
     def __init__(
@@ -47,9 +48,9 @@ class SimulatedArm:
         if not time_constant_s > 0:
             raise ValueError(f"servo time constant must be > 0 s, got {time_constant_s}")
         self.time_constant_s = float(time_constant_s)
-        self.limits = limits if limits is not None else arm_model().limits
+        self.limits = limits if limits is not None else robots.arm_model().limits
         start = np.array(
-            RIGHT_ARM_HOME_RAD if initial_position_rad is None else initial_position_rad, dtype=float
+            robots.active().home_rad if initial_position_rad is None else initial_position_rad, dtype=float
         )
         start = np.clip(start, self.limits.lower_rad, self.limits.upper_rad)
         self.state = ArmState(position_rad=start, velocity_rad_s=np.zeros_like(start))

@@ -42,6 +42,7 @@ from typing import Any, Literal
 import numpy as np
 
 from handover_model import scene
+from handover_model.robots import GripperSpec
 from robot_sim.contact.config import ContactSimError, ObjectParams, SensorParams, SimConfig
 from robot_sim.contact.plant import ContactPlant
 from robot_sim.contact.receiver import absent, behaviour_by_name, min_jerk
@@ -90,6 +91,8 @@ class SceneParams:
         lift_clearance_m: the object counts as lifted this far above its table position, m.
         ft_noise_std_n, ft_bias_std_n: the wrist F/T sensor's white noise per axis and the
             spread of its per-episode bias, N (`robot_sim.contact.config.SensorParams`).
+        gripper: the robot's gripper (its rates and force range go into the plant's actuator);
+            None: the plant's default actuator (50 N/s, 25 Hz, 140 N).
     """
 
     behaviour: str = "taking"
@@ -112,6 +115,7 @@ class SceneParams:
     lift_clearance_m: float = 0.05
     ft_noise_std_n: float = SensorParams.ft_noise_std_n
     ft_bias_std_n: float = SensorParams.ft_bias_std_n
+    gripper: GripperSpec | None = None
 
 
 @dataclass(frozen=True)
@@ -158,6 +162,9 @@ class HandoverScene:
                                                       mu_kinetic=params.mu_kinetic),
                                      sensors=SensorParams(ft_noise_std_n=params.ft_noise_std_n,
                                                           ft_bias_std_n=params.ft_bias_std_n))
+            g = params.gripper
+            if g is not None:
+                self._config = self._config.with_gripper(g.force_rate_n_s, g.loop_rate_hz, g.force_max_n, g.force_min_n)
             # Build the behaviour once now so that a bad configuration fails at start-up.
             self._behaviour_at(10.0)
         except TypeError as exc:

@@ -45,6 +45,8 @@ class GripperActuator:
         """Finger target (m from contact) for a force command (N)."""
         xp = self.xp
         f = xp.clip(force_command_n, 0.0, self.params.max_force_n)
+        if self.params.min_force_n > 0.0:
+            f = xp.where(f > 0.0, xp.maximum(f, self.params.min_force_n), f)
         return xp.where(f > 0.0, f / self.k_n_per_m, -self.params.open_gap_m)
 
     def latch(self, force_command_n) -> None:

@@ -78,6 +78,8 @@ class GripperParams:
     open_gap_m: how far behind the contact position x0 the finger goes for a zero-force
         command (0 = thesis: F_G = 0 means touching with no force; > 0 opens the hand).
     max_force_n: commands are clamped to [0, max_force_n] (ISO/TS 15066 hand limit 140 N).
+    min_force_n: the softest grip the gripper holds (N): a command in (0, min_force_n) grips
+        with min_force_n (a Robotiq 2F-85 cannot press with less than 20 N); 0 opens.
     """
 
     spring_n_per_m: float = 500.0
@@ -86,6 +88,7 @@ class GripperParams:
     speed_limit_m_s: float = 0.1
     open_gap_m: float = 0.0
     max_force_n: float = 140.0
+    min_force_n: float = 0.0
 
     def __post_init__(self) -> None:
         _finite(self)
@@ -95,6 +98,7 @@ class GripperParams:
         _check(self.speed_limit_m_s > 0, "speed_limit_m_s must be > 0")
         _check(self.open_gap_m >= 0, "open_gap_m must be >= 0")
         _check(0 < self.max_force_n <= 140.0, "max_force_n must be in (0, 140] N")
+        _check(0 <= self.min_force_n < self.max_force_n, "min_force_n must be in [0, max_force_n) N")
 
     @property
     def force_rate_n_per_s(self) -> float:
@@ -234,6 +238,14 @@ class SimConfig:
         the wrist F/T sensor and the gripper's position loop (0.01 s by default: 100 Hz F/T,
         25 Hz loop; with a 250 Hz loop every loop tick latches a fresh command)."""
         return 1.0 / max(self.sensors.ft_rate_hz, self.gripper.loop_rate_hz)
+
+    def with_gripper(self, force_rate_n_per_s: float, loop_rate_hz: float, max_force_n: float,
+                     min_force_n: float = 0.0) -> "SimConfig":
+        """This setup with another gripper: its rates (`with_gripper_rates`) and its force range,
+        N (the maximum capped at the 140 N hand limit of ISO/TS 15066, which the plant keeps)."""
+        out = self.with_gripper_rates(force_rate_n_per_s, loop_rate_hz)
+        top = min(float(max_force_n), 140.0)
+        return replace(out, gripper=replace(out.gripper, max_force_n=top, min_force_n=min(float(min_force_n), top / 2)))
 
     def with_gripper_rates(self, force_rate_n_per_s: float, loop_rate_hz: float) -> "SimConfig":
         """This setup with another gripper force rate (N/s) and position-loop rate (Hz). A

@@ -28,11 +28,11 @@ from typing import Any, Literal
 import numpy as np
 
 from bus_schema.messages import SKELETON_JOINTS, SkeletonJoint
-from handover_model import scene
+from handover_model import robots, scene
 from robot_sim.kinect.camera import KinectCamera
 from robot_sim.kinect.quantise import DepthQuantiser
 from robot_sim.kinect.receiver import BodySize, ReceiverBody, min_jerk
-from handover_model.robot_geometry import TORSO_CAPSULES, ArmGeometry
+from handover_model.robot_geometry import ArmGeometry
 from robot_sim.kinect.scene_depth import SceneDepthRenderer, StaticScene, render_reference
 from handover_model.shapes import Box, Capsule
 from robot_sim.kinect.skeleton_model import SkeletonErrorModel, SkeletonErrorParams
@@ -158,9 +158,9 @@ class KinectSim:
         self.body = ReceiverBody(BodySize(self.scenario.height_m, self.scenario.posture))
         self.errors = SkeletonErrorModel(self.scenario.skeleton_errors, self.rng)
         self._table_top, self._table_legs = table_boxes_and_legs()
-        #: What never moves (floor, table, Baxter's torso, the receiver's legs): cast once.
+        #: What never moves (floor, table, the robot's fixed parts, the receiver's legs): cast once.
         self.static_scene = StaticScene(
-            capsules=(*self._table_legs, *TORSO_CAPSULES, *self.body.static_capsules()),
+            capsules=(*self._table_legs, *self.arm.body_capsules, *self.body.static_capsules()),
             boxes=(self._table_top,), floor_z_m=-scene.BASE_HEIGHT_ABOVE_FLOOR_M)
         self.depth = SceneDepthRenderer(self.camera, self.static_scene)
         self.renderer = self.depth.renderer
@@ -224,7 +224,7 @@ class KinectSim:
         Args:
             q_arm_rad: Baxter right-arm joints (7,), rad.
             object_position_m: object centre (m, `base`); default: waiting on the table at
-                `handover_model.scene.OBJECT_PICK_BASE_M`.
+                the active arm's `object_pick_base_m`.
             right_hand_m: where the receiver's right hand is (m, `base`), when another model
                 (the handover scene) drives it; default: this simulator's own reach.
         """
@@ -233,7 +233,8 @@ class KinectSim:
         self._last_hand = joints["right_hand"].copy()
         joints_arr = np.stack([joints[n] for n in SKELETON_JOINTS])
         tool = self.arm.tool_position(q_arm_rad)
-        obj = scene.OBJECT_PICK_BASE_M if object_position_m is None else np.asarray(object_position_m, float)
+        obj = (np.array(robots.active().object_pick_base_m) if object_position_m is None
+               else np.asarray(object_position_m, float))
         depth_m = self.depth.render(*self.moving_shapes(joints, q_arm_rad, obj))
         noise_rng = self.rng if self.scenario.depth_noise else None
         payload = self._quantiser.quantise(depth_m, noise_rng, changed=self.depth.changed)

@@ -17,7 +17,8 @@ from typing import Any, Protocol
 import numpy as np
 
 from robot_sim.arm import SimulatedArm
-from handover_model.baxter import RIGHT_ARM_JOINTS, JointLimits, arm_model
+from handover_model import robots
+from handover_model.robots import JointLimits
 
 
 @dataclass(frozen=True)
@@ -91,7 +92,7 @@ class Backend(Protocol):
 
 
 class SimBackend:
-    """Baxter's right arm simulated by `robot_sim.arm.SimulatedArm` in real time.
+    """The active arm simulated by `robot_sim.arm.SimulatedArm` in real time.
 
     A servo step that would leave the arm exactly as it is (the same positions and
     velocities) is not computed again while its inputs stay the same (the state, target and
@@ -106,8 +107,8 @@ class SimBackend:
     def __init__(self, time_constant_s: float = 0.05,
                  initial_position_rad: np.ndarray | None = None,
                  robot_command_timeout_s: float = 0.2) -> None:
-        self.joint_names = RIGHT_ARM_JOINTS
-        self.limits = arm_model().limits
+        self.joint_names = robots.active().joints
+        self.limits = robots.arm_model().limits
         self.arm = SimulatedArm(time_constant_s, self.limits, initial_position_rad)
         self.robot_command_timeout_s = float(robot_command_timeout_s)
         self._holding_target: np.ndarray | None = None
@@ -227,7 +228,9 @@ def make_backend(name: str, contact: Any = None, **kwargs: Any) -> Backend:
                                  mu_static=contact.mu_static, mu_kinetic=contact.mu_kinetic, seed=contact.seed,
                                  height_m=contact.height_m, posture=contact.posture,
                                  reach_duration_s=contact.hand_reach_duration_s,
-                                 ft_noise_std_n=contact.ft_noise_std_n, ft_bias_std_n=contact.ft_bias_std_n)
+                                 ft_noise_std_n=contact.ft_noise_std_n, ft_bias_std_n=contact.ft_bias_std_n,
+                                 object_start_base_m=robots.active().object_pick_base_m,
+                                 gripper=robots.active().gripper)
             return HandoverSimBackend(params, **_sim_kwargs(kwargs))
         if contact is not None and contact.enabled:
             from services.bridge.contact_backend import ContactSimBackend

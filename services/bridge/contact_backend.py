@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from handover_model.baxter import arm_model
+from handover_model.robots import arm_model
 from robot_sim.contact.config import ContactSimError, ObjectParams, SimConfig
 from robot_sim.contact.plant import ContactPlant
 from robot_sim.contact.receiver import behaviour_by_name

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from handover_model.baxter import JointLimits
+from handover_model.robots import JointLimits
 
 
 @dataclass(frozen=True)

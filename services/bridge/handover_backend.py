@@ -24,7 +24,7 @@ import threading
 
 import numpy as np
 
-from handover_model.baxter import arm_model
+from handover_model.robots import arm_model
 from robot_sim.contact.config import ContactSimError
 from robot_sim.handover_scene import HandoverScene, SceneOutput, SceneParams
 from services.bridge.backend import INT16_MAX, PublishFn, SimBackend, clip_finite

@@ -36,6 +36,9 @@ def _run(args: argparse.Namespace) -> int:
             table[key] = value
     if args.step_in_callback:
         table["step_in_callback"] = True
+    from handover_model import robots
+
+    table.setdefault("max_position_m", robots.active().gripper.stroke_m)  # the arm's gripper travel
     if args.param:
         params = dict(table.get("controller_params", {}))
         params.update(args.param)

@@ -28,8 +28,9 @@ class GripSpring:
         stiffness_n_m: spring stiffness k, N/m (thesis: 5 N/cm = 500 N/m).
         contact_position_m: gripper closing position x0 at which the plate touches the
             object, m.
-        max_position_m: largest position the gripper can be commanded to, m (Baxter's
-            electric gripper travels about 0.1 m). Forces needing more are saturated.
+        max_position_m: largest position the gripper can be commanded to, m (the gripper's
+            stroke: `handover_model.robots.GripperSpec.stroke_m`, 0.1 m for the default arm).
+            Forces needing more are saturated.
     """
 
     stiffness_n_m: float = THESIS_SPRING_STIFFNESS_N_M

@@ -8,12 +8,15 @@ import tempfile
 import time
 from pathlib import Path
 
+from handover_model import robots
+from handover_model.robots import ROBOT_ENV
 from services.launcher.checks import check_niced_services_are_report_only, clock_environment
 from services.launcher.core import JOBS, LaunchOptions, check_one_simulated_kinect, job_services
 from services.launcher.errors import LauncherUsageError
 from services.launcher.node import Launcher
 from services.launcher.processes import DEFAULT_OUTPUT_QUEUE_LINES, stdout_outlet
 from services.runtime import base_parser, load_profile_file, run_main
+from services.runtime.cli import use_profile_robot
 from services.runtime.errors import ProfileError
 from services.runtime.profile import free_tcp_port
 
@@ -60,6 +63,10 @@ def _run(args: argparse.Namespace) -> int:
         else:
             raise LauncherUsageError(f"--port {args.port!r} must be a port number 1–65535 or 'auto'")
     profile = profile.with_bus(endpoint, args.prefix)
+    if args.robot is not None:
+        os.environ[ROBOT_ENV] = args.robot  # every service inherits it (handover_model.robots)
+    robot = use_profile_robot(profile)
+    os.environ[ROBOT_ENV] = robot.name
     check_one_simulated_kinect(profile)
     check_niced_services_are_report_only(profile)
     cfg = profile.launcher
@@ -112,6 +119,8 @@ def main(argv: list[str] | None = None) -> int:
     scene = parser.add_argument_group("the simulated handover (sim profile)")
     scene.add_argument("--receiver", choices=["taking", "dropping", "bumping", "hesitating", "absent"],
                        default=None, help="the receiver's behaviour (default: the profile's, taking)")
+    scene.add_argument("--robot", choices=sorted(robots.BUILTIN), default=None,
+                       help="the arm (default: the profile's [robot] model, baxter); docs/robots.md")
     scene.add_argument("--posture", choices=["standing", "sitting"], default=None,
                        help="the receiver's posture (default: the profile's, standing)")
     scene.add_argument("--episodes", type=int, default=None,

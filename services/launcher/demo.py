@@ -15,7 +15,8 @@ import numpy as np
 from ruckig import InputParameter, Result, Ruckig, Trajectory
 
 from bus_schema import topics
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS, arm_model
+from handover_model import robots
+from handover_model.robots import arm_model
 from services.runtime import RateLoop, ServiceNode
 
 log = logging.getLogger(__name__)
@@ -86,9 +87,10 @@ def run_demo(node: ServiceNode, abort: callable, settle_s: float = 0.6,
         if (reason := abort()) or node.should_stop:
             return DemoResult(False, message=reason or "interrupted")
         node.wait(0.05)
-    home = np.array(RIGHT_ARM_HOME_RAD)
+    arm = robots.active()
+    home = np.array(arm.home_rad)
     current = np.array(states.latest().msg.position_rad)
-    waypoints = [home + np.array(o) for o in DEMO_OFFSETS_RAD]
+    waypoints = [home + np.array(o[:arm.dof]) for o in DEMO_OFFSETS_RAD]  # the first joints of a shorter arm
     model = arm_model()
     result = DemoResult(False)
     period = 1.0 / COMMAND_RATE_HZ
@@ -100,7 +102,7 @@ def run_demo(node: ServiceNode, abort: callable, settle_s: float = 0.6,
         for tick in RateLoop(COMMAND_RATE_HZ, node.stop_event, name="demo command"):
             t = min(tick * period, trajectory.duration)
             position, _velocity, _acc = trajectory.at_time(t)
-            commands.put(names=list(RIGHT_ARM_JOINTS), position_rad=list(position), goal_id=f"demo-{index}")
+            commands.put(names=list(arm.joints), position_rad=list(position), goal_id=f"demo-{index}")
             result.commands_sent += 1
             latest = states.latest()
             if latest is not None:
@@ -123,7 +125,7 @@ def run_demo(node: ServiceNode, abort: callable, settle_s: float = 0.6,
     for _tick in RateLoop(COMMAND_RATE_HZ, node.stop_event, name="demo settle"):
         if time.monotonic() >= settle_end:
             break
-        commands.put(names=list(RIGHT_ARM_JOINTS), position_rad=list(current), goal_id="demo-settle")
+        commands.put(names=list(arm.joints), position_rad=list(current), goal_id="demo-settle")
         result.commands_sent += 1
     result.duration_s = time.monotonic() - t_start
     latest = states.latest()

@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 
-from handover_model import baxter, scene
+from handover_model import robots, scene
 from services.motion.config import MotionConfig
 from services.motion.errors import MotionError
 from services.runtime import ServiceError, base_parser, load_profile, run_main
@@ -27,7 +27,7 @@ class MotionCliError(ServiceError):
 def _config(args: argparse.Namespace) -> MotionConfig:
     profile = load_profile(args)
     try:
-        return MotionConfig.from_dict(profile.service_config("motion"))
+        return MotionConfig.from_dict(profile.service_config("motion"), robots.active())
     except MotionError as exc:
         raise MotionCliError(str(exc)) from exc
 
@@ -62,14 +62,15 @@ def _plan(args: argparse.Namespace) -> int:
     if args.to_task is not None:
         task = _vector(args.to_task, 2, "--to-task")
         position = tuple(float(v) for v in scene.task_to_base(np.array(task)))
-    start = np.array(_vector(args.from_joints, 7, "--from-joints") or baxter.RIGHT_ARM_HOME_RAD)
+    arm = robots.active()
+    start = np.array(_vector(args.from_joints, arm.dof, "--from-joints") or arm.home_rad)
     if args.duration < 0 or args.peak_speed < 0:
         raise MotionCliError("--duration and --peak-speed must be >= 0")
     try:
         goal = MotionGoal(
             seq=0, stamp_ns=0, source="cli", goal_id="cli", kind=args.kind,
             position_base_m=position,
-            joint_target_rad=list(_vector(args.joints, 7, "--joints") or []),
+            joint_target_rad=list(_vector(args.joints, arm.dof, "--joints") or []),
             duration_s=args.duration, peak_speed_m_s=args.peak_speed,
             receiver_hand_position_m=_vector(args.hand, 3, "--hand"),
         )
@@ -88,7 +89,7 @@ def _plan(args: argparse.Namespace) -> int:
     print(f"final tool position (base, m): {np.round(p_end, 4).tolist()}")
     z_axis = r_end[:, 2]
     print(f"final approach axis (base): {np.round(z_axis, 4).tolist()}")
-    names = " ".join(f"{n[6:]:>7}" for n in baxter.RIGHT_ARM_JOINTS)
+    names = " ".join(f"{n.removeprefix('right_')[-7:]:>7}" for n in arm.joints)
     print(f"{'t_s':>6} {'x_m':>7} {'y_m':>7} {'z_m':>7} {'v_m_s':>6} {names}")
     step = max(1, int(round(args.every / config.period_s)))
     rows = list(range(0, len(record.time_s), step))
@@ -109,7 +110,8 @@ def _plan(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     parser = base_parser(
         "handover-motion",
-        "Motion service: PlaCo IK + Ruckig for Baxter's right arm. Without a subcommand it runs "
+        "Motion service: PlaCo IK + Ruckig for the profile's arm ([robot], docs/robots.md). "
+        "Without a subcommand it runs "
         "the service (goals and stops in, joint commands at 100 Hz while moving, and status out); "
         "`plan` plans one goal offline and prints the joint trajectory.",
     )
@@ -125,11 +127,10 @@ def main(argv: list[str] | None = None) -> int:
                       help="target tool position in the base frame, m")
     plan.add_argument("--to-task", type=float, nargs=2, metavar=("X", "Z"),
                       help="target in the task plane (x toward the receiver, z up from the table top), m")
-    joint_names = ("S0", "S1", "E0", "E1", "W0", "W1", "W2")
-    plan.add_argument("--joints", type=float, nargs=7, metavar=joint_names,
-                      help="joint target (kind joint/retract), rad")
-    plan.add_argument("--from-joints", type=float, nargs=7, metavar=joint_names,
-                      help="start joints, rad (default: the home posture)")
+    plan.add_argument("--joints", type=float, nargs="+", metavar="Q",
+                      help="joint target (kind joint/retract), rad, one per arm joint")
+    plan.add_argument("--from-joints", type=float, nargs="+", metavar="Q",
+                      help="start joints, rad, one per arm joint (default: the home posture)")
     plan.add_argument("--duration", type=float, default=0.0, help="duration, s (0: from speed)")
     plan.add_argument("--peak-speed", type=float, default=0.0, help="peak tool speed, m/s (0: default)")
     plan.add_argument("--hand", type=float, nargs=3, metavar=("X", "Y", "Z"),

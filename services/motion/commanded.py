@@ -14,9 +14,9 @@ class CommandedState:
     """The last command and its derivatives, and the commanded tool's velocity.
 
     Attributes:
-        q_rad: commanded joint positions (7,), rad, or None before the first command.
-        dq_rad_s: commanded joint velocities (7,), rad/s.
-        ddq_rad_s2: commanded joint accelerations (7,), rad/s².
+        q_rad: commanded joint positions (n,), rad, or None before the first command.
+        dq_rad_s: commanded joint velocities (n,), rad/s.
+        ddq_rad_s2: commanded joint accelerations (n,), rad/s².
         tool_m: commanded tool position (3,), `base` frame, m, or None before the first command.
         tool_velocity_m_s: tool velocity between the last two commands (3,), m/s.
         tool_speed_m_s: its norm, m/s (0 once a move has come to rest).
@@ -38,7 +38,7 @@ class CommandedState:
 
     def record(self, q: np.ndarray, dt_s: float, dq: np.ndarray | None = None,
                ddq: np.ndarray | None = None) -> None:
-        """Record a new command q (7,), rad, one tick of `dt_s` s after the last, with its
+        """Record a new command q (n,), rad, one tick of `dt_s` s after the last, with its
         velocity dq (rad/s) and acceleration ddq (rad/s²); finite differences when not given."""
         previous_q = self.q_rad
         previous_dq = self.dq_rad_s
@@ -61,7 +61,7 @@ class CommandedState:
         self.ddq_rad_s2[:] = 0.0
 
     def hold_at(self, q: np.ndarray) -> None:
-        """Command `q` (7,), rad, at rest from now on (no tool-speed update)."""
+        """Command `q` (n,), rad, at rest from now on (no tool-speed update)."""
         self.q_rad = q.copy()
         self.zero_derivatives()
 
@@ -70,7 +70,7 @@ class CommandedState:
         return bool(np.any(np.abs(self.dq_rad_s) > 1e-9))
 
     def sent_q_rad(self, servo_lag_s: float) -> np.ndarray | None:
-        """The joints to send (7,), rad: the command plus the servo-lag lead
+        """The joints to send (n,), rad: the command plus the servo-lag lead
         `servo_lag_s × velocity` (s × rad/s), clipped to the joint limits; None before the
         first command."""
         if self.q_rad is None:

@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from handover_model.robots import RobotDescription
 from services.motion.errors import MotionConfigError
 
 
@@ -58,7 +59,11 @@ class MotionConfig:
             velocity × lag; without it a stop lets the arm coast through that lag (≈ 170 ms to
             rest in the sim). 0.05 s matches the sim bridge's `servo_time_constant_s`; set it to
             the identified value on hardware, 0 disables the lead.
-        posture_rad: posture the IK regularises toward (Baxter's right arm, rad).
+        posture_rad: posture the IK regularises toward (rad, the arm's joints in order).
+
+    The defaults are the default arm's; `from_dict(values, robot)` takes the posture, the
+    workspace, the velocity scale and the acceleration and jerk limits from the robot's
+    description (`handover_model.robots`) unless the profile sets them.
     """
 
     rate_hz: float = 100.0
@@ -149,10 +154,9 @@ class MotionConfig:
             raise MotionConfigError(
                 f"motion config workspace_min_m {lo} must be 3 numbers each below workspace_max_m {hi}"
             )
-        if len(self.posture_rad) != 7:
+        if len(self.posture_rad) < 5 or not all(math.isfinite(v) for v in self.posture_rad):
             raise MotionConfigError(
-                f"motion config posture_rad needs 7 joint angles (right_s0..right_w2), "
-                f"got {len(self.posture_rad)}"
+                f"motion config posture_rad needs one finite angle per arm joint, got {self.posture_rad!r}"
             )
 
     @property
@@ -161,8 +165,9 @@ class MotionConfig:
         return 1.0 / self.rate_hz
 
     @classmethod
-    def from_dict(cls, values: dict[str, Any] | None) -> MotionConfig:
+    def from_dict(cls, values: dict[str, Any] | None, robot: RobotDescription | None = None) -> MotionConfig:
         """Build from a profile's config table; unknown keys are an error (typos show up).
+        With `robot`, the keys the table leaves out that the arm describes come from it.
 
         Raises:
             MotionConfigError: unknown key or invalid value.
@@ -180,6 +185,15 @@ class MotionConfig:
                     values[key] = tuple(float(v) for v in values[key])
                 except (TypeError, ValueError) as exc:
                     raise MotionConfigError(f"motion config {key} must be a list of numbers") from exc
+        if robot is not None:
+            from_robot = {"posture_rad": robot.ready_rad, "workspace_min_m": robot.workspace_min_m,
+                          "workspace_max_m": robot.workspace_max_m, "velocity_scale": robot.velocity_scale,
+                          "joint_acceleration_rad_s2": min(robot.acceleration_rad_s2),
+                          "joint_jerk_rad_s3": min(robot.jerk_rad_s3)}
+            values = {**from_robot, **values}
+        if robot is not None and len(values["posture_rad"]) != robot.dof:
+            raise MotionConfigError(f"motion config posture_rad needs {robot.dof} angles "
+                                    f"({', '.join(robot.joints)}), got {len(values['posture_rad'])}")
         try:
             return cls(**values)
         except TypeError as exc:

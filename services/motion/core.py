@@ -106,7 +106,7 @@ class MotionController:
 
     @property
     def commanded_q_rad(self) -> np.ndarray | None:
-        """Last commanded joint positions (7,), rad, or None before the first command."""
+        """Last commanded joint positions (n,), rad, or None before the first command."""
         q = self.commanded.q_rad
         return None if q is None else q.copy()
 
@@ -132,12 +132,12 @@ class MotionController:
 
         Args:
             now_s: local monotonic time, s.
-            measured_q_rad: newest measured right-arm joints (7,), rad, if one arrived since
+            measured_q_rad: newest measured right-arm joints (n,), rad, if one arrived since
                 the last tick (else None: the previous measurement is kept with its age; the
                 node gives it with `note_measurement` instead).
             goals: goals received since the last tick, oldest first.
             stops: stops received since the last tick.
-            measured_dq_rad_s: measured joint velocities (7,), rad/s, with `measured_q_rad`.
+            measured_dq_rad_s: measured joint velocities (n,), rad/s, with `measured_q_rad`.
             measured_at_s: local receive time of that measurement (default `now_s`).
         """
         self._board.begin_tick()
@@ -289,7 +289,8 @@ class MotionController:
         elif self._mode is _Mode.STOPPING:
             self._advance_stopping(now_s, elapsed, dt)
         elif self._mode is _Mode.HOLD and self.commanded.q_rad is not None:
-            self.commanded.record(self.commanded.q_rad, dt, np.zeros(7), np.zeros(7))
+            self.commanded.record(self.commanded.q_rad, dt, np.zeros_like(self.commanded.q_rad),
+                                 np.zeros_like(self.commanded.q_rad))
             if self.status.state == "moving":
                 self._check_settled(now_s)
 

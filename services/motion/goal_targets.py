@@ -6,11 +6,13 @@ Pure functions of the goal's fields (and the limits they must respect); each rai
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 from bus_schema.messages import MotionGoal
-from handover_model import baxter
+from handover_model import robots
 from services.motion.config import MotionConfig
 from services.motion.errors import GoalRejected
 from services.motion.ik import UPRIGHT_ROTATION
@@ -57,21 +59,25 @@ def goal_position_m(goal: MotionGoal, config: MotionConfig) -> np.ndarray:
     return p
 
 
-def goal_joint_target_rad(goal: MotionGoal, lower_rad: np.ndarray, upper_rad: np.ndarray) -> np.ndarray | None:
-    """The right-arm joint target (7,), rad, or None when the goal gives none.
+def goal_joint_target_rad(goal: MotionGoal, lower_rad: np.ndarray, upper_rad: np.ndarray,
+                          joint_names: Sequence[str] | None = None) -> np.ndarray | None:
+    """The arm's joint target (n,), rad, or None when the goal gives none.
 
     Raises:
-        GoalRejected: not 7 values, or a value outside [`lower_rad`, `upper_rad`].
+        GoalRejected: not one value per joint of `joint_names`, or a value outside
+            [`lower_rad`, `upper_rad`]. `joint_names`: the arm's joints (default: the active arm's).
     """
     if not goal.joint_target_rad:
         return None
-    if len(goal.joint_target_rad) != 7:
+    joint_names = tuple(joint_names or robots.active().joints)
+    if len(goal.joint_target_rad) != len(joint_names):
         raise GoalRejected(
-            f"joint_target_rad needs 7 values (right_s0..right_w2), got {len(goal.joint_target_rad)}"
+            f"joint_target_rad needs {len(joint_names)} values ({joint_names[0]}..{joint_names[-1]}), "
+            f"got {len(goal.joint_target_rad)}"
         )
     q = np.array(goal.joint_target_rad, dtype=float)
     outside = (q < lower_rad) | (q > upper_rad)
     if outside.any():
-        names = [baxter.RIGHT_ARM_JOINTS[i] for i in np.flatnonzero(outside)]
+        names = [joint_names[i] for i in np.flatnonzero(outside)]
         raise GoalRejected(f"joint_target_rad outside the joint limits at {names}")
     return q

@@ -29,15 +29,14 @@ PlaCo would otherwise load for the visual model cost â‰ˆ 245 MB of memory and â‰
 
 from __future__ import annotations
 
-import functools
 import logging
 import math
-import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 import numpy as np
 
-from handover_model import baxter
+from handover_model import robots
+from handover_model.robots import RobotDescription
 from services.motion.config import MotionConfig
 from services.motion.errors import IkError, IkInfeasibleError, IkNoProgressError, MotionError
 
@@ -53,9 +52,9 @@ UPRIGHT_ROTATION = np.array(
 )
 
 
-@functools.cache
-def kinematic_urdf_text() -> str:
-    """Baxter's URDF as text with every link's `<visual>` and `<collision>` removed.
+def kinematic_urdf_text(robot: RobotDescription | None = None) -> str:
+    """The arm's URDF as text with every link's `<visual>` and `<collision>` removed, placed in
+    `base` with its tool frame (`handover_model.robots.model_urdf_text`).
 
     Joints, links, frames, limits and inertias are unchanged, so the kinematics are those of
     the full model; no mesh file is referenced, so nothing is read from disk but the URDF.
@@ -63,15 +62,11 @@ def kinematic_urdf_text() -> str:
     Raises:
         MotionError: the URDF is missing or not valid XML.
     """
+    robot = robot or robots.active()
     try:
-        root = ET.parse(baxter.urdf_path()).getroot()
-    except (OSError, ET.ParseError, baxter.BaxterModelError) as exc:
-        raise MotionError(f"could not read Baxter's URDF: {exc}") from exc
-    for link in root.iter("link"):
-        for tag in ("visual", "collision"):
-            for element in link.findall(tag):
-                link.remove(element)
-    return ET.tostring(root, encoding="unicode")
+        return robots.model_urdf_text(robot)
+    except robots.RobotDescriptionError as exc:
+        raise MotionError(f"could not read {robot.name}'s URDF: {exc}") from exc
 
 
 def rotation_error_rad(rotation_a: np.ndarray, rotation_b: np.ndarray) -> float:
@@ -103,22 +98,29 @@ class ArmIk:
     Not thread-safe: one instance per control loop.
     """
 
-    def __init__(self, config: MotionConfig | None = None) -> None:
+    def __init__(self, config: MotionConfig | None = None, description: RobotDescription | None = None) -> None:
         import placo  # heavy import, only where IK is needed
 
         self.config = config or MotionConfig()
+        self.description = description or robots.active()
+        desc = self.description
+        if len(self.config.posture_rad) != desc.dof:
+            raise MotionError(f"motion config posture_rad has {len(self.config.posture_rad)} values; "
+                              f"{desc.name} has {desc.dof} joints ({', '.join(desc.joints)})")
         try:
-            self.robot = placo.RobotWrapper(str(baxter.urdf_path()), placo.Flags.ignore_collisions,
-                                            kinematic_urdf_text())
-        except (RuntimeError, baxter.BaxterModelError) as exc:
-            raise MotionError(f"PlaCo could not load Baxter's URDF: {exc}") from exc
-        self.joint_names = baxter.RIGHT_ARM_JOINTS
+            self.robot = placo.RobotWrapper(str(robots.urdf_path(desc)), placo.Flags.ignore_collisions,
+                                            kinematic_urdf_text(desc))
+        except (RuntimeError, robots.RobotDescriptionError) as exc:
+            raise MotionError(f"PlaCo could not load {desc.name}'s URDF: {exc}") from exc
+        self.joint_names = desc.joints
+        self.tool_frame = desc.tool_frame
         self._q_index = np.array([self.robot.get_joint_offset(n) for n in self.joint_names])
         self._v_index = np.array([self.robot.get_joint_v_offset(n) for n in self.joint_names])
         limits = np.array([self.robot.get_joint_limits(n) for n in self.joint_names])
         self.lower_rad = limits[:, 0].copy()
         self.upper_rad = limits[:, 1].copy()
-        urdf_velocity = np.array(self.robot.model.velocityLimit)[self._v_index]
+        urdf_velocity = np.array(desc.velocity_rad_s) if desc.velocity_rad_s else \
+            np.array(self.robot.model.velocityLimit)[self._v_index]
         self.velocity_limit_rad_s = urdf_velocity * self.config.velocity_scale
         for name, v in zip(self.joint_names, self.velocity_limit_rad_s):
             self.robot.set_velocity_limit(name, float(v))
@@ -131,9 +133,9 @@ class ArmIk:
         solver.enable_joint_limits(True)
         solver.enable_velocity_limits(True)
         self.solver = solver
-        self._position_task = solver.add_position_task(baxter.TOOL_FRAME, np.zeros(3))
+        self._position_task = solver.add_position_task(self.tool_frame, np.zeros(3))
         self._position_task.configure("tool_position", "soft", 1.0)
-        self._orientation_task = solver.add_orientation_task(baxter.TOOL_FRAME, np.eye(3))
+        self._orientation_task = solver.add_orientation_task(self.tool_frame, np.eye(3))
         self._orientation_task.configure("tool_orientation", "soft", 1.0)
         self._posture_task = solver.add_joints_task()
         self._posture_task.set_joints(
@@ -163,7 +165,7 @@ class ArmIk:
         return self._current_tool_pose()
 
     def _current_tool_pose(self) -> tuple[np.ndarray, np.ndarray]:
-        transform = self.robot.get_T_world_frame(baxter.TOOL_FRAME)
+        transform = self.robot.get_T_world_frame(self.tool_frame)
         return transform[:3, 3].copy(), transform[:3, :3].copy()
 
     def _errors(self, position_m: np.ndarray, rotation: np.ndarray) -> tuple[float, float]:
@@ -204,7 +206,8 @@ class ArmIk:
         """
         seeds = [np.asarray(q_seed_rad, dtype=float), np.asarray(self.config.posture_rad, dtype=float)]
         rng = np.random.default_rng(self.config.ik_restart_seed)
-        seeds += list(rng.uniform(self.lower_rad, self.upper_rad, size=(self.config.ik_restarts, 7)))
+        n_joints = len(self.joint_names)
+        seeds += list(rng.uniform(self.lower_rad, self.upper_rad, size=(self.config.ik_restarts, n_joints)))
         first_error: IkError | None = None
         iterations = 0
         for seed in seeds:

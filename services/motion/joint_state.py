@@ -8,7 +8,7 @@ from typing import Sequence
 import numpy as np
 
 from bus_schema.messages import JointState
-from handover_model import baxter
+from handover_model import robots
 from services.motion.errors import MotionError
 from services.runtime.logs import RateLimitedLog
 from services.runtime.pubsub import Received
@@ -19,8 +19,8 @@ class ArmMeasurement:
     """A measured right-arm joint state.
 
     Attributes:
-        q_rad: joint positions (7,), rad, `RIGHT_ARM_JOINTS` order.
-        dq_rad_s: joint velocities (7,), rad/s, or None when the message carried none.
+        q_rad: joint positions (n,), rad, in the arm's joint order.
+        dq_rad_s: joint velocities (n,), rad/s, or None when the message carried none.
         at_s: local receive time, monotonic s.
     """
 
@@ -30,7 +30,7 @@ class ArmMeasurement:
 
 
 def arm_positions_from(names: Sequence[str], positions: Sequence[float]) -> np.ndarray:
-    """Right-arm joint positions (7,) in `RIGHT_ARM_JOINTS` order from a named joint list.
+    """The arm's joint positions (n,) in the active description's order from a named joint list.
 
     Raises:
         MotionError: a right-arm joint is missing or the lists differ in length.
@@ -40,10 +40,11 @@ def arm_positions_from(names: Sequence[str], positions: Sequence[float]) -> np.n
             f"joint state has {len(names)} names but {len(positions)} positions"
         )
     index = {n: i for i, n in enumerate(names)}
-    missing = [n for n in baxter.RIGHT_ARM_JOINTS if n not in index]
+    joints = robots.active().joints
+    missing = [n for n in joints if n not in index]
     if missing:
         raise MotionError(f"joint state lacks right-arm joint(s) {missing}")
-    return np.array([positions[index[n]] for n in baxter.RIGHT_ARM_JOINTS], dtype=float)
+    return np.array([positions[index[n]] for n in joints], dtype=float)
 
 
 def arm_measurement_from(msg: JointState, received_at_s: float) -> ArmMeasurement:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from handover_model.baxter import RIGHT_ARM_JOINTS
+from handover_model import robots
 from services.motion.status import TickOutput
 from services.runtime.repeat import RepeatGate
 
@@ -28,7 +28,7 @@ class Outbox:
     def __init__(self, status_rate_hz: float) -> None:
         self.status_every_s = 1.0 / status_rate_hz
         self.command_gate = RepeatGate()
-        self._joint_names = list(RIGHT_ARM_JOINTS)
+        self._joint_names = list(robots.active().joints)
         self._last_status_s = -float("inf")
 
     def command(self, out: TickOutput, now_s: float) -> dict[str, Any] | None:

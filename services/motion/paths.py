@@ -202,7 +202,7 @@ def zone_limited_duration_s(
 
 @dataclass(frozen=True)
 class JointLimits:
-    """Kinematic limits for Ruckig, per joint (7,), rad, rad/s, rad/s², rad/s³."""
+    """Kinematic limits for Ruckig, per joint (n,), rad, rad/s, rad/s², rad/s³."""
 
     lower_rad: np.ndarray
     upper_rad: np.ndarray
@@ -212,7 +212,7 @@ class JointLimits:
 
 
 class JointTrajectory:
-    """A Ruckig trajectory sampled by time: `state_at(t)` → (q, dq, ddq) arrays (7,)."""
+    """A Ruckig trajectory sampled by time: `state_at(t)` → (q, dq, ddq) arrays (n,)."""
 
     def __init__(self, trajectory) -> None:
         self._trajectory = trajectory

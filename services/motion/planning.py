@@ -8,7 +8,7 @@
   target, stretched until its tool speed next to the receiver's hand is within the cap.
 - a stop: the fastest Ruckig brake to rest within the stop limits.
 
-Joint states are (q, dq, ddq): positions (7,) rad, velocities (7,) rad/s, accelerations (7,)
+Joint states are (q, dq, ddq): positions (n,) rad, velocities (n,) rad/s, accelerations (n,)
 rad/s²; tool quantities are in Baxter's `base` frame, m, m/s, m/s².
 """
 
@@ -19,7 +19,6 @@ import math
 import numpy as np
 
 from bus_schema.messages import MotionGoal
-from handover_model import baxter
 from services.motion.config import MotionConfig
 from services.motion.errors import GoalRejected, TrajectoryError
 from services.motion.goal_targets import goal_joint_target_rad, goal_position_m, goal_rotation
@@ -58,8 +57,8 @@ class GoalPlanner:
     def __init__(self, config: MotionConfig, ik: ArmIk) -> None:
         self.config = config
         self.ik = ik
-        self.ruckig = JointTrajectoryPlanner(7)
-        n = 7
+        n = len(ik.joint_names)
+        self.ruckig = JointTrajectoryPlanner(n)
         velocity = ik.velocity_limit_rad_s
         self.move_limits = JointLimits(
             ik.lower_rad, ik.upper_rad, velocity,
@@ -182,15 +181,15 @@ class GoalPlanner:
             IkError: no IK solution for the goal's position.
             TrajectoryError: Ruckig failed.
         """
-        q_target = goal_joint_target_rad(goal, self.ik.lower_rad, self.ik.upper_rad)
+        q_target = goal_joint_target_rad(goal, self.ik.lower_rad, self.ik.upper_rad, self.ik.joint_names)
         if q_target is None:
             if goal.kind == "joint":
-                raise GoalRejected("a joint goal needs joint_target_rad (7 values)")
+                raise GoalRejected(f"a joint goal needs joint_target_rad ({len(self.ik.joint_names)} values)")
             if goal.position_base_m is not None:
                 position = goal_position_m(goal, self.config)
                 q_target = self.ik.solve(position, goal_rotation(goal), q0).q_rad
             elif goal.kind == "retract":
-                q_target = np.array(baxter.RIGHT_ARM_HOME_RAD)
+                q_target = np.array(self.ik.description.home_rad)
             else:
                 raise GoalRejected("a pick goal needs position_base_m or joint_target_rad")
         trajectory = self.ruckig.move(q0, dq0, ddq0, q_target, self.move_limits, goal.duration_s)

@@ -9,13 +9,13 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from handover_model import baxter  # noqa: E402
+from handover_model import robots  # noqa: E402
 
 
 def plot_record(record, path: str | Path, title: str = "") -> None:
     """Joint positions and tool speed of a `PreviewRecord` to a PNG."""
     fig, (ax_q, ax_v) = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
-    for j, name in enumerate(baxter.RIGHT_ARM_JOINTS):
+    for j, name in enumerate(robots.active().joints):
         ax_q.plot(record.time_s, record.q_rad[:, j], label=name)
     ax_q.set_ylabel("joint position (rad)")
     ax_q.legend(ncol=4, fontsize=8)

@@ -22,8 +22,8 @@ class PreviewRecord:
 
     Attributes:
         time_s: tick times (N,), s from the goal.
-        q_rad: commanded joints (N, 7), rad.
-        dq_rad_s: commanded joint velocities (N, 7), rad/s.
+        q_rad: commanded joints (N, n), rad.
+        dq_rad_s: commanded joint velocities (N, n), rad/s.
         tool_m: commanded tool positions (N, 3), `base` frame, m.
         state: status state per tick.
         final_status: status after the last tick.
@@ -60,7 +60,7 @@ def preview(
     Args:
         controller: a controller (its state is advanced; use a fresh one per preview).
         goal: the goal to run.
-        q_start_rad: measured joints at the start (7,), rad.
+        q_start_rad: measured joints at the start (n,), rad.
         max_time_s: give up after this long.
         stop_at_s, stop: optionally send `stop` at this time after the goal.
     """
@@ -93,8 +93,8 @@ def preview(
                 break
     return PreviewRecord(
         time_s=np.array(times),
-        q_rad=np.array(qs).reshape(-1, 7),
-        dq_rad_s=np.array(dqs).reshape(-1, 7),
+        q_rad=np.array(qs, dtype=float).reshape(len(qs), len(q_start_rad)),
+        dq_rad_s=np.array(dqs, dtype=float).reshape(len(dqs), len(q_start_rad)),
         tool_m=np.array(tools).reshape(-1, 3),
         state=states,
         final_status=controller.status,

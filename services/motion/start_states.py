@@ -1,6 +1,6 @@
 """Where a plan starts: the joint state a new goal or a stop's brake starts from.
 
-Each returns (q rad, dq rad/s, ddq rad/s²), each (7,).
+Each returns (q rad, dq rad/s, ddq rad/s²), each (n,).
 
 A goal starts from the commanded state while the arm moves (the new plan continues the
 motion smoothly), else from the measured joints at rest.
@@ -50,7 +50,7 @@ def goal_start(
             + ("" if measured is None else f" (last one {now_s - measured.at_s:.2f} s old)")
             + "; is handover-bridge running?"
         )
-    return ik.clip_to_limits(measured.q_rad.copy()), np.zeros(7), np.zeros(7)
+    return ik.clip_to_limits(measured.q_rad.copy()), np.zeros(len(measured.q_rad)), np.zeros(len(measured.q_rad))
 
 
 def brake_start(
@@ -71,5 +71,5 @@ def brake_start(
     ):
         age = max(0.0, now_s - measured.at_s)
         q0 = ik.clip_to_limits(measured.q_rad + measured.dq_rad_s * age)
-        return q0, measured.dq_rad_s.copy(), np.zeros(7)
+        return q0, measured.dq_rad_s.copy(), np.zeros(len(q0))
     return commanded.q_rad, commanded.dq_rad_s, commanded.ddq_rad_s2

@@ -58,6 +58,7 @@ import msgspec
 import numpy as np
 
 from handover_model import scene
+from handover_model.robots import RobotDescription
 from handover_model.body import MAX_LEAN_FRACTION
 from services.planner.anthropometrics import BodyDimensions
 from services.planner.djt.settings import DJTSettings
@@ -236,14 +237,32 @@ def validate(cfg: PlannerConfig) -> PlannerConfig:
     return cfg
 
 
-def load_config(table: dict[str, Any] | None) -> PlannerConfig:
-    """The typed config from a profile's ``[services.planner.config]`` table ({} → defaults).
+def robot_defaults(table: dict[str, Any], robot: RobotDescription) -> dict[str, Any]:
+    """`table` with what the robot's description says filled in where the table is silent: the
+    giver's stand-in (`[giver]`) and where the reach starts (above the object's pick place)."""
+    table = dict(table)
+    g = robot.giver
+    stand_in = {"height_m": g.height_m, "arm_span_m": g.arm_span_m, "weight_kg": g.weight_kg,
+                "shoulder_x_task_m": g.shoulder_x_task_m}
+    giver = table.get("giver", {})
+    table["giver"] = {**stand_in, **giver} if isinstance(giver, dict) else giver
+    timing = table.get("timing", {})
+    if isinstance(timing, dict) and "reach_start_base_m" not in timing:
+        x, y, z = robot.object_pick_base_m
+        table["timing"] = {**timing, "reach_start_base_m": [x, y, z + 0.10]}
+    return table
+
+
+def load_config(table: dict[str, Any] | None, robot: RobotDescription | None = None) -> PlannerConfig:
+    """The typed config from a profile's ``[services.planner.config]`` table ({} → defaults);
+    with `robot`, the giver's stand-in and the reach start default to the robot's.
 
     Raises:
         PlannerError: unknown key, wrong type or invalid value, naming the key.
     """
+    table = robot_defaults(table or {}, robot) if robot is not None else (table or {})
     try:
-        cfg = msgspec.convert(table or {}, PlannerConfig)
+        cfg = msgspec.convert(table, PlannerConfig)
     except msgspec.ValidationError as exc:
         raise PlannerError(f"planner config: {exc}") from None
     return validate(cfg)

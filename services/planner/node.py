@@ -9,6 +9,7 @@ import argparse
 import logging
 
 from bus_schema import topics as T
+from handover_model import robots
 from services.planner.config import load_config
 from services.planner.core import PlannerService
 from services.runtime import RateLimitedLog, ServiceNode, load_profile
@@ -25,7 +26,7 @@ REPUBLISH_PERIOD_S = 0.2
 def run(args: argparse.Namespace) -> int:
     """Run the planner service until SIGINT/SIGTERM."""
     profile = load_profile(args)
-    cfg = load_config(profile.service_config("planner"))
+    cfg = load_config(profile.service_config("planner"), robots.active())
     service = PlannerService(cfg)
     notes = RateLimitedLog(log, 2.0)
     with ServiceNode("planner", profile) as node:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 
+from handover_model import robots
 from services.planner.anthropometrics import FIGURE3_ACTOR, ROBOT_AS_HUMAN, BodyDimensions
 from services.planner.config import PlannerConfig, load_config
 from services.planner.core import timing_for
@@ -72,7 +73,7 @@ def config_from_args(args: argparse.Namespace) -> PlannerConfig:
     except (ProfileError, OSError, ValueError):  # missing, unreadable or invalid
         # A bus-free answer must not depend on a deploy profile; use the defaults.
         table = {}
-    return load_config(table)
+    return load_config(table, robots.active())
 
 
 def scene_from_args(args: argparse.Namespace, cfg: PlannerConfig):

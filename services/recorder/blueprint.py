@@ -150,17 +150,26 @@ def links_without_importable_mesh(urdf: Path) -> tuple[str, ...]:
     return tuple(hidden)
 
 
+@functools.cache
+def collision_meshes_are_stl(urdf: Path) -> bool:
+    """Whether `urdf` has collision meshes and all are STL (drawn in `primitives` mode)."""
+    names = [m.get("filename", "").lower() for c in ET.parse(urdf).getroot().iter("collision") for m in c.iter("mesh")]
+    return bool(names) and all(n.endswith(".stl") for n in names)
+
+
 def _robot_overrides(robot_name: str) -> dict[str, rrb.EntityBehavior]:
     """Hide what the viewer cannot draw: collision meshes/spheres and unimportable visual meshes
     (the arm is then drawn with its collision cylinders and boxes)."""
-    overrides = {f"{robot_name}/collision_geometries/{kind}": rrb.EntityBehavior(visible=False)
-                 for kind in ("mesh", "sphere")}
     try:
-        from handover_model.baxter import urdf_path
+        from handover_model import robots
 
-        links = links_without_importable_mesh(urdf_path())
+        urdf = robots.urdf_path(robots.active())
+        links = links_without_importable_mesh(urdf)
+        stl = collision_meshes_are_stl(urdf)
     except Exception:  # noqa: BLE001 - the model is optional for a recording: then show everything
-        links = ()
+        links, stl = (), False
+    overrides = {f"{robot_name}/collision_geometries/{kind}": rrb.EntityBehavior(visible=False)
+                 for kind in (("sphere",) if stl else ("mesh", "sphere"))}
     overrides.update({f"{robot_name}/visual_geometries/{link}": rrb.EntityBehavior(visible=False) for link in links})
     return overrides
 

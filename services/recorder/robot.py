@@ -1,4 +1,7 @@
-"""Baxter in the recording: its model (static, once) and its joint transforms (batched).
+"""The arm in the recording: its model (static, once) and its joint transforms (batched).
+
+The arm is the active description's (`handover_model.robots`), placed in the scene frame
+`base` as the stack places it (`robots.placed_urdf_file`).
 
 Model (`RecorderConfig.robot_model`):
 
@@ -7,9 +10,10 @@ Model (`RecorderConfig.robot_model`):
   head, hidden by the blueprint anyway) and the entities left without geometry are dropped, the
   rest is kept: the static joint transforms (``tf_static``), the collision cylinders and boxes
   (arms, grippers) and the URDF's small visual primitives (display, sonar ring, hand camera),
-  one chunk per entity (the loader's three per entity cost ~1 kB each). The torso, which has
-  only meshes, is drawn as the convex hull of its collision mesh (193 vertices, 382 triangles,
-  hull by coal/Qhull) at the torso's visual entity.
+  one chunk per entity (the loader's three per entity cost ~1 kB each). Collision meshes in STL
+  (the arms whose links have no primitive shapes: Panda 136 kB, UR5 280 kB) are kept too. A
+  torso that has only meshes (the default arm's) is drawn as the convex hull of its collision
+  mesh (193 vertices, 382 triangles, hull by coal/Qhull) at the torso's visual entity.
 - ``meshes`` (~16 MB): `rr.log_file_from_path(urdf)`: every Collada mesh. The Rerun 0.41 viewer
   can import only the torso's (the others use ``<polylist>``); the arms are drawn with the same
   collision cylinders as in ``primitives``.
@@ -38,7 +42,7 @@ from services.recorder.config import RobotModelMode
 
 log = logging.getLogger(__name__)
 
-#: Colour of the torso's hull (Baxter's dark grey, RGB).
+#: Colour of the torso's hull (dark grey, RGB).
 TORSO_RGB = (60, 60, 60)
 
 
@@ -86,6 +90,7 @@ def primitive_model(chunks, keep: frozenset[str] = frozenset()) -> tuple[list, l
     for entity, group in by_entity.items():
         if "/collision_geometries/sphere/" in entity:
             continue
+        stl = "/collision_geometries/mesh/" in entity and any(_is_stl(c) for c in group)
         if len(group) == 1 and "_geometries/" not in entity:
             as_is.append(group[0])  # tf_static, the robot's root frame
             continue
@@ -93,7 +98,8 @@ def primitive_model(chunks, keep: frozenset[str] = frozenset()) -> tuple[list, l
         for batch in (c.to_record_batch() for c in group):
             for f, column in zip(batch.schema, batch.columns, strict=True):
                 meta = f.metadata or {}
-                if meta.get(b"rerun:kind") == b"data" and meta.get(b"rerun:archetype") != b"rerun.archetypes.Asset3D":
+                asset = meta.get(b"rerun:archetype") == b"rerun.archetypes.Asset3D"
+                if meta.get(b"rerun:kind") == b"data" and (stl or not asset):
                     fields.append(f)
                     arrays.append(column)
         has_geometry = any((f.metadata or {}).get(b"rerun:archetype") not in _PLACEMENT for f in fields)
@@ -102,13 +108,23 @@ def primitive_model(chunks, keep: frozenset[str] = frozenset()) -> tuple[list, l
     return as_is, merged
 
 
+def _is_stl(chunk) -> bool:
+    """Whether `chunk` holds an Asset3D whose media type is STL."""
+    batch = chunk.to_record_batch()
+    names = [f.name for f in batch.schema]
+    if "Asset3D:media_type" not in names:
+        return False
+    return "stl" in str(batch.column(names.index("Asset3D:media_type")).to_pylist()).lower()
+
+
 class RobotModel:
-    """Baxter's model logged once (static) in `mode`, and its joint transforms."""
+    """The active arm's model logged once (static) in `mode`, and its joint transforms."""
 
     def __init__(self, rec: rr.RecordingStream, mode: RobotModelMode, pose_every: int = 1) -> None:
-        from handover_model.baxter import urdf_path
+        from handover_model import robots
 
-        path = urdf_path()  # also sets ROS_PACKAGE_PATH so the meshes resolve
+        robots.urdf_path(robots.active())  # sets ROS_PACKAGE_PATH so the meshes resolve
+        path = robots.placed_urdf_file(robots.active())
         self.tree = rr.urdf.UrdfTree.from_file_path(path)
         self.robot_name = self.tree.name
         self.pose_every = pose_every

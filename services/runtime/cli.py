@@ -93,9 +93,26 @@ def base_parser(prog: str, description: str) -> argparse.ArgumentParser:
 
 
 def load_profile(args: argparse.Namespace) -> Profile:
-    """The profile named by ``--profile`` with ``--endpoint``/``--prefix`` applied."""
+    """The profile named by ``--profile`` with ``--endpoint``/``--prefix`` applied; its arm
+    (``[robot]``, or ``HANDOVER_ROBOT``) becomes this process's (`handover_model.robots.use`)."""
     profile = load_profile_file(args.profile)
+    use_profile_robot(profile)
     return profile.with_bus(getattr(args, "endpoint", None), getattr(args, "prefix", None))
+
+
+def use_profile_robot(profile: Profile):
+    """Make the profile's arm this process's and return its description.
+
+    Raises:
+        ProfileError: ``[robot]`` names an unknown model or holds a bad value.
+    """
+    from handover_model import robots
+    from services.runtime.errors import ProfileError
+
+    try:
+        return robots.use(robots.from_profile(profile.raw, str(profile.path)))
+    except robots.RobotDescriptionError as exc:
+        raise ProfileError(str(exc)) from None
 
 
 def run_main(run: Callable[[argparse.Namespace], int], args: argparse.Namespace,

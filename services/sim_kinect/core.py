@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from handover_model.baxter import RIGHT_ARM_JOINTS
+from handover_model import robots
 from services.runtime.repeat import RepeatGate, settled_key
 from services.sim_kinect.config import KinectConfig
 
@@ -39,14 +39,14 @@ def make_kinect_sim(config: KinectConfig) -> Any:
 
 
 def arm_posture_rad(names: Sequence[str], position_rad: Sequence[float]) -> np.ndarray | None:
-    """Baxter's right-arm joints (7,), rad, in `RIGHT_ARM_JOINTS` order, from a joint state
-    with any joint order; None when a right-arm joint is missing, a value is not finite or
+    """The active arm's joints (n,), rad, in its description's order, from a joint state
+    with any joint order; None when one of its joints is missing, a value is not finite or
     names and values differ in number."""
     if len(names) != len(position_rad):
         return None
     by_name = dict(zip(names, position_rad, strict=True))
     try:
-        q = np.array([float(by_name[n]) for n in RIGHT_ARM_JOINTS])
+        q = np.array([float(by_name[n]) for n in robots.active().joints])
     except KeyError:
         return None
     return q if np.all(np.isfinite(q)) else None

@@ -17,7 +17,7 @@ from collections.abc import Callable
 from typing import Any
 
 from bus_schema import topics
-from handover_model.baxter import RIGHT_ARM_HOME_RAD
+from handover_model import robots
 from services.runtime import Profile, RateLimitedLog, ServiceNode, kv
 from services.runtime.liveliness import LivelinessWatcher
 from services.runtime.node import heartbeat_period_s
@@ -149,7 +149,7 @@ def run_supervisor(profile: Profile, config: SupervisorConfig) -> int:
 
         watcher = LivelinessWatcher(node.session, profile.prefix, on_change=on_liveliness)
         node.ready()
-        sup = Supervision(config, health, RIGHT_ARM_HOME_RAD, node.clock.now_s())
+        sup = Supervision(config, health, robots.active().home_rad, node.clock.now_s())
         seq = sup.sequencer
         # Every wake-up (a release, any watched input, a liveliness change) runs an extra tick
         # at once for the release interrupt and the watchdog; the sequencer ticks on the grid.

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from bus_schema import topics as T
-from handover_model.baxter import RIGHT_ARM_JOINTS
+from handover_model import robots
 from handover_model.robot_geometry import ArmGeometry
 from services.runtime import ServiceNode
 from services.runtime.clock import SimClock
@@ -77,12 +77,13 @@ class _Feeder:
         self.human: list[HumanEstimate] = []
 
     def joint_state(self, msg, t_s: float) -> bool:
-        """Feed a joint state; False (and a warning) when it lacks the right-arm joints."""
+        """Feed a joint state; False (and a warning) when it lacks the arm's joints."""
         index = {n: i for i, n in enumerate(msg.names)}
-        if any(n not in index for n in RIGHT_ARM_JOINTS) or len(msg.position_rad) != len(msg.names):
-            self.warnings.warning("joint_state", "joint_state without the right-arm joints: ignored")
+        joints = robots.active().joints
+        if any(n not in index for n in joints) or len(msg.position_rad) != len(msg.names):
+            self.warnings.warning("joint_state", "joint_state without the arm's joints: ignored")
             return False
-        self.pipe.on_joint_state(np.array([msg.position_rad[index[n]] for n in RIGHT_ARM_JOINTS]), t_s)
+        self.pipe.on_joint_state(np.array([msg.position_rad[index[n]] for n in joints]), t_s)
         return True
 
     def depth(self, msg, t_s: float) -> None:

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from handover_model import scene
-from handover_model.baxter import RIGHT_ARM_HOME_RAD
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD
 from robot_sim.kinect import KinectScenario, KinectSim
 from robot_sim.kinect.depth import kinect_depth_mm
 from robot_sim.kinect.quantise import DepthQuantiser

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from bus_schema.messages import MotionGoal
-from handover_model import baxter, scene
+from handover_model import scene
+from handover_model.robots import baxter
 from services.motion.config import MotionConfig
 from services.motion.core import MotionController
 from services.motion.ik import UPRIGHT_ROTATION, ArmIk

@@ -24,7 +24,7 @@ import pytest
 
 from bus_schema import topics as T
 from bus_schema.codec import decode, encode
-from handover_model.baxter import RIGHT_ARM_HOME_RAD
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD
 from robot_sim.kinect import KinectSim
 from services.bridge.baxter.fake_openni import depth_messages, joint_transforms, skeleton_array
 from services.tracker.ros1.calibration import CameraPose

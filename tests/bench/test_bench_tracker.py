@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from bus_schema.messages import DepthImage, JointState, Skeleton
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from robot_sim.kinect import ArmGeometry, KinectScenario, KinectSim
 from services.tracker.config import TrackerConfig
 from services.tracker.core import TrackerPipeline, skeleton_frame_from_message

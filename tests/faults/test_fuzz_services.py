@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from bus_schema import TOPICS, topics
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from services.recorder.readback import read_scalars
 from services.runtime.testing import ServiceProcess, wait_alive, wait_until
 from tests.faults.mutations import random_payloads, structured_payloads

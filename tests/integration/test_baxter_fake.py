@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from bus_schema import topics
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from services.bridge.baxter.keys import topic_key
 from services.bridge.baxter.messages import JointCommand, JointState
 from services.runtime import ServiceNode

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from bus_schema import topics
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from services.runtime.testing import ServiceProcess, wait_alive, wait_until
 
 pytestmark = pytest.mark.integration

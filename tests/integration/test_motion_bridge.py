@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from bus_schema import topics
-from handover_model import baxter, scene
+from handover_model import scene
+from handover_model.robots import baxter
 from services.runtime.testing import ServiceProcess, wait_alive, wait_until
 
 pytestmark = pytest.mark.integration

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from bus_schema import topics
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from robot_sim.kinect.receiver import BodySize, ReceiverBody
 from services.runtime.testing import ServiceProcess, wait_alive, wait_until
 

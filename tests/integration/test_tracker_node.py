@@ -13,7 +13,7 @@ from bus_schema import topics as T
 from bus_schema.codec import decode, encode
 from bus_schema.messages import DepthImage, JointState, Skeleton
 from handover_model import scene
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from robot_sim.kinect import KinectScenario, KinectSim
 from services.runtime.testing import BusRouter, ServiceProcess, client_session, loopback_profile, wait_alive, wait_until
 

@@ -42,7 +42,8 @@ from typing import Any
 import numpy as np
 import zenoh
 
-from handover_model.baxter import RIGHT_ARM_JOINTS, arm_model
+from handover_model.robots import BAXTER, arm_model
+from handover_model.robots.baxter import RIGHT_ARM_JOINTS
 from services.bridge.backend import JointReading, PublishFn
 from services.bridge.baxter import core
 from services.bridge.baxter.config import BaxterConfig, parse_baxter_config
@@ -132,7 +133,7 @@ class BaxterBackend:
         self.dry_run = dry_run
         self._sink = dry_run_sink or _log_sink
         self.joint_names = RIGHT_ARM_JOINTS
-        self.limits = arm_model().limits
+        self.limits = arm_model(BAXTER).limits
         self._warn = RateLimitedLog(log, 1.0)
         self._lock = threading.Lock()
 

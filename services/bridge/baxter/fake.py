@@ -53,7 +53,7 @@ import zenoh
 from msgspec import Meta
 
 from bus_schema import topics
-from handover_model.baxter import RIGHT_ARM_JOINTS
+from handover_model.robots.baxter import RIGHT_ARM_JOINTS
 from services.bridge.backend import Backend, make_backend
 from services.bridge.baxter.config import BaxterConfig, parse_baxter_config
 from services.bridge.baxter.core import grip_force_from_percent, parse_gripper_args

@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from handover_model import baxter  # noqa: E402
+from handover_model import robots  # noqa: E402
 from services.motion.plot import plot_record  # noqa: E402
 
 
@@ -28,15 +28,15 @@ def make_docs_figures(out_dir: Path) -> list[Path]:
     from services.motion.preview import preview
 
     out_dir.mkdir(parents=True, exist_ok=True)
-    config = MotionConfig()
+    config = MotionConfig.from_dict({}, robots.active())
     ik = ArmIk(config)
-    home = np.array(baxter.RIGHT_ARM_HOME_RAD)
+    home = np.array(robots.active().home_rad)
 
     def goal(**kw):
         return MotionGoal(seq=0, stamp_ns=0, source="figures", **kw)
 
     pick = preview(MotionController(config, ik),
-                   goal(goal_id="pick", kind="pick", position_base_m=tuple(scene.OBJECT_PICK_BASE_M)), home)
+                   goal(goal_id="pick", kind="pick", position_base_m=tuple(robots.active().object_pick_base_m)), home)
     q_pick = pick.q_rad[-1]
     target = tuple(scene.task_to_base(np.array([0.05, 0.35])))
     hand = tuple(np.array(target) + np.array([0.12, 0.0, 0.0]))
@@ -64,7 +64,7 @@ def make_docs_figures(out_dir: Path) -> list[Path]:
     written.append(path)
 
     fig, (ax_q, ax_v) = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
-    for j, name in enumerate(baxter.RIGHT_ARM_JOINTS):
+    for j, name in enumerate(robots.active().joints):
         ax_v.plot(stopped.time_s, stopped.dq_rad_s[:, j], label=name)
         ax_q.plot(stopped.time_s, stopped.q_rad[:, j])
     for ax in (ax_q, ax_v):

@@ -17,7 +17,7 @@ from scipy.optimize import least_squares
 
 from bus_schema.messages import DepthImage, JointState, SimTruth, Skeleton
 from handover_model import scene
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
+from handover_model import robots
 from robot_sim.kinect import ArmGeometry, KinectScenario, KinectSim
 from robot_sim.kinect.receiver import min_jerk
 from services.tracker.errors import TrackerError
@@ -84,7 +84,7 @@ def run_episode(seed: int, arm: ArmGeometry | None = None) -> Iterator[EpisodeFr
     """Frames of the episode `seed` at 30 Hz for `EPISODE_DURATION_S`."""
     arm = arm or ArmGeometry()
     scenario, transfer, robot_duration = episode_scenario(seed)
-    q_home = np.array(RIGHT_ARM_HOME_RAD)
+    q_home = np.array(robots.active().home_rad)
     q_goal = solve_arm_ik(arm, transfer, q_home)
     hand_target = transfer + HAND_GRASP_OFFSET_M
     scenario = KinectScenario(**{**scenario.__dict__, "hand_target_base_m": tuple(hand_target)})
@@ -102,8 +102,8 @@ def run_episode(seed: int, arm: ArmGeometry | None = None) -> Iterator[EpisodeFr
         yield EpisodeFrame(
             t_s=t,
             joint_state=JointState(
-                seq=k, stamp_ns=stamp, source="sim", names=list(RIGHT_ARM_JOINTS),
-                position_rad=[float(v) for v in q], velocity_rad_s=[0.0] * 7, holding=False,
+                seq=k, stamp_ns=stamp, source="sim", names=list(robots.active().joints),
+                position_rad=[float(v) for v in q], velocity_rad_s=[0.0] * len(q), holding=False,
             ),
             skeleton=Skeleton(seq=k, stamp_ns=stamp, source="sim", **frame.skeleton_fields),
             depth=DepthImage(seq=k, stamp_ns=stamp, source="sim", **frame.depth_fields),

@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from handover_model import scene as layout
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, arm_model
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD, arm_model
 from services.bridge.backend import make_backend
 from services.bridge.config import BridgeConfig, parse_config
 from services.bridge.handover_backend import HandoverSimBackend

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from bus_schema import topics
-from handover_model.baxter import RIGHT_ARM_HOME_RAD
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD
 from services.bridge.arm_loop import STALL_PERIODS, TRUTH_REPEAT_S, ArmLoop, Inbox
 from services.bridge.backend import SimBackend
 from services.bridge.config import parse_config

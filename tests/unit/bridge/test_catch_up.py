@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from handover_model.baxter import RIGHT_ARM_HOME_RAD
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD
 from services.bridge.backend import SimBackend, make_backend
 from services.bridge.config import ContactConfig
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from robot_sim.arm import SimulatedArm
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS, arm_model
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS, arm_model
 from services.bridge.core import CommandGate, CommandRejected
 
 J = list(RIGHT_ARM_JOINTS)

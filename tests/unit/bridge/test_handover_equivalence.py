@@ -21,7 +21,7 @@ import math
 import numpy as np
 import pytest
 
-from handover_model.baxter import arm_model
+from handover_model.robots.baxter import arm_model
 from robot_sim.contact.config import ContactSimError
 from robot_sim.contact.generic_step import step_generic
 from robot_sim.contact.plant import ContactPlant

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from handover_model import scene
-from handover_model.baxter import RIGHT_ARM_HOME_RAD
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD
 from robot_sim.kinect import KinectScenario, KinectSim
 from robot_sim.kinect.block_cast import BlockCaster
 from robot_sim.kinect.camera import KinectCamera

@@ -183,7 +183,7 @@ def test_motion_loads_baxter_without_meshes_but_with_every_joint_and_frame():
     links, joints, limits and inertias as the file, so the kinematics are unchanged."""
     import xml.etree.ElementTree as ET
 
-    from handover_model import baxter
+    from handover_model.robots import baxter
     from services.motion.ik import kinematic_urdf_text
 
     full = ET.parse(baxter.urdf_path()).getroot()

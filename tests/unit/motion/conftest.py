@@ -23,7 +23,7 @@ def arm_ik(motion_config):
 @pytest.fixture(scope="session")
 def pin_arm():
     """Pinocchio's model of the arm (independent FK for checks)."""
-    from handover_model import baxter
+    from handover_model.robots import baxter
 
     return baxter.arm_model()
 

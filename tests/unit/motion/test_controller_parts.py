@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bus_schema.messages import MotionGoal
-from handover_model import baxter
+from handover_model.robots import baxter
 from services.motion.commanded import CommandedState
 from services.motion.errors import GoalRejected
 from services.motion.goal_targets import goal_joint_target_rad, goal_position_m, goal_rotation

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from bus_schema.messages import MotionGoal, MotionStop
-from handover_model import baxter, scene
+from handover_model import scene
+from handover_model.robots import baxter
 from services.motion.core import MotionController
 from services.motion.errors import MotionError
 from services.motion.ik import UPRIGHT_ROTATION, rotation_error_rad

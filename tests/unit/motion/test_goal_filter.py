@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from bus_schema.messages import MotionGoal, MotionStop
-from handover_model import baxter
+from handover_model.robots import baxter
 from services.motion.goal_filter import GoalFilter
 
 S = 1_000_000_000  # 1 s in ns

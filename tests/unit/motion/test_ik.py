@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from handover_model import baxter, scene
+from handover_model import scene
+from handover_model.robots import baxter
 from services.motion.errors import IkNoProgressError
 from services.motion.ik import UPRIGHT_ROTATION, rotation_error_rad
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from bus_schema.messages import JointState
-from handover_model import baxter
+from handover_model.robots import baxter
 from services.motion.errors import MotionError
 from services.motion.joint_state import NewestArmState, arm_measurement_from
 from services.runtime.logs import RateLimitedLog

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from handover_model import baxter
+from handover_model.robots import baxter
 from services.motion.outbox import Outbox
 from services.motion.status import Status, TickOutput
 from services.runtime.repeat import HOLD_REPEAT_S

@@ -76,7 +76,7 @@ def test_unimportable_meshes_are_hidden_the_rest_shown(tmp_path: Path, monkeypat
 
 
 def test_baxter_arm_meshes_are_hidden_the_torso_kept():
-    from handover_model.baxter import urdf_path
+    from handover_model.robots.baxter import urdf_path
 
     hidden = links_without_importable_mesh(urdf_path())
     assert "right_upper_shoulder" in hidden and "right_wrist" in hidden

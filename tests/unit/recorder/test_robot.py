@@ -7,7 +7,7 @@ import pyarrow as pa
 import pytest
 import rerun as rr
 
-from handover_model.baxter import RIGHT_ARM_JOINTS, urdf_path
+from handover_model.robots.baxter import RIGHT_ARM_JOINTS, urdf_path
 from services.recorder.config import RecorderConfig
 from services.recorder.readback import _reader, entity_row_counts
 from services.recorder.robot import RobotModel, convex_hull_mesh, primitive_model

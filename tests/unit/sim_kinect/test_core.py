@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from bus_schema import topics
-from handover_model.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from robot_sim.kinect.receiver import BodySize, ReceiverBody
 from services.sim_kinect.cli import main
 from services.sim_kinect.config import KinectConfig, parse_config

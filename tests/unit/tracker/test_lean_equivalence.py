@@ -9,7 +9,7 @@ import pytest
 
 from bus_schema.messages import DepthImage, Skeleton
 from handover_model import scene
-from handover_model.baxter import RIGHT_ARM_HOME_RAD
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD
 from robot_sim.kinect import ArmGeometry, KinectScenario, KinectSim
 from robot_sim.kinect.camera import KINECT_LOOK_AT_BASE_M, KINECT_POSITION_BASE_M, KinectCamera, look_at_rotation
 from services.tracker.config import TrackerConfig

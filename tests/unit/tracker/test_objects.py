@@ -7,7 +7,7 @@ import pytest
 
 from bus_schema.messages import DepthImage
 from handover_model import scene
-from handover_model.baxter import RIGHT_ARM_HOME_RAD
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD
 from robot_sim.kinect import KinectScenario, KinectSim
 from services.tracker.objects import detect_object
 from services.tracker.pointcloud import depth_frame_from_message

@@ -7,7 +7,7 @@ import pytest
 
 from bus_schema import topics as T
 from bus_schema.messages import Skeleton
-from handover_model.baxter import RIGHT_ARM_HOME_RAD
+from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD
 from robot_sim.kinect import ArmGeometry
 from services.tracker.config import TrackerConfig, config_from_dict
 from services.tracker.core import SkeletonFrame, TrackerPipeline, skeleton_frame_from_message

@@ -64,7 +64,7 @@ def test_images_that_cannot_be_depth_frames_are_refused_in_one_line(msg, camera,
 
 
 def test_the_fake_openni_messages_give_back_the_simulated_kinects_frame():
-    from handover_model.baxter import RIGHT_ARM_HOME_RAD
+    from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD
     from robot_sim.kinect.sim import KinectSim
     from services.bridge.baxter.fake_openni import depth_messages
 
