@@ -76,12 +76,16 @@ class GiverStandIn:
         height_m, arm_span_m, weight_kg: the stand-in's body.
         shoulder_x_task_m: where its shoulder stands in the task plane (x, m; the receiver's is
             +0.5 m, the table's middle is 0).
+        posture, seat_height_m: standing, or sitting on a seat this high (m): a small arm's
+            stand-in sits, which lowers the transfer point into its reach.
     """
 
     height_m: float = 1.90
     arm_span_m: float = 2.00
     weight_kg: float = 100.0
     shoulder_x_task_m: float = -0.5
+    posture: str = "standing"
+    seat_height_m: float = 0.45
 
 
 @dataclass(frozen=True)

@@ -4,8 +4,9 @@ low-cost SO-ARM101 (LeRobot / The Robot Studio). The figures and their sources: 
 Placement (`base_xyz_m`, scene frame `base`, m): the table top is at z = −0.23 and spans
 x 0.264–0.864 (the giver's edge at 0.264), y −0.634–0.116; the task plane is y = −0.259. The
 two industrial arms stand on a pedestal level with the table top just behind its near edge;
-the SO-ARM101 (0.25 m of reach) sits on a 0.43 m riser on the table, near the transfer point,
-and its object waits on the riser beside it (docs/robots.md#so-arm101).
+the SO-ARM101 (0.31 m of height span with the jaws pointing down) sits on a 0.265 m riser on
+the table, near the transfer point, with the object on the table beside it, and its giver
+stand-in sits (docs/robots.md#so-arm101).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ PANDA = RobotDescription(
     tool_parent="panda_hand_tcp",
     tool_rpy_rad=(0.0, 0.0, math.pi),
     base_xyz_m=(0.20, -0.30, -0.23),
-    home_rad=(0.0, -0.767, 0.0, -2.88, 0.0, 2.112, 0.785),
+    home_rad=(0.404, -0.676, 0.545, -2.75, 0.388, 2.114, 1.423),
     acceleration_rad_s2=(3.0,),
     jerk_rad_s3=(30.0,),
     gripper=GripperSpec(
@@ -48,7 +49,7 @@ UR5 = RobotDescription(
     tool_parent="tool0",
     tool_xyz_m=(0.0, 0.0, 0.15),
     base_xyz_m=(0.20, -0.30, -0.23),
-    home_rad=(-0.373, -2.072, 1.943, -1.442, -1.571, 1.198),
+    home_rad=(0.628, -1.956, 1.881, -1.496, -1.571, 2.198),
     acceleration_rad_s2=(3.0,),
     jerk_rad_s3=(30.0,),
     gripper=GripperSpec(
@@ -68,8 +69,8 @@ SO_ARM101 = RobotDescription(
     tool_frame=TOOL_FRAME_NAME,
     tool_parent="gripper_frame_link",
     tool_rpy_rad=(0.0, 0.0, math.pi / 2),
-    base_xyz_m=(0.38, -0.259, 0.20),
-    home_rad=(-0.046, 0.657, 0.656, 0.258, 1.573),
+    base_xyz_m=(0.51, -0.259, 0.01),
+    home_rad=(1.009, 0.179, 1.007, 0.385, 2.629),
     velocity_rad_s=(3.0,),
     acceleration_rad_s2=(6.0,),
     jerk_rad_s3=(60.0,),
@@ -78,11 +79,10 @@ SO_ARM101 = RobotDescription(
         force_rate_n_s=150.0, loop_rate_hz=50.0,
         source="Feetech STS3215: 19.5 kg·cm stall at 7.4 V, 0.222 s/60°; 10 N: stall force at the jaw "
                "derated to LeRobot's torque limit (assumption); 50 Hz bus cycle (assumption)"),
-    giver=GiverStandIn(height_m=1.40, arm_span_m=1.40, weight_kg=40.0, shoulder_x_task_m=-0.5),
-    object_pick_base_m=(0.50, -0.42, 0.02),
+    giver=GiverStandIn(height_m=1.60, arm_span_m=1.60, weight_kg=55.0, shoulder_x_task_m=-0.25, posture="sitting"),
+    object_pick_base_m=(0.62, -0.12, -0.17),
     link_radius_m=0.03,
-    body_capsules=(((0.38, -0.259, -0.23), (0.38, -0.259, 0.17), 0.04),  # the riser on the table
-                   ((0.50, -0.42, -0.23), (0.50, -0.42, -0.05), 0.03)),  # the object's stand
+    body_capsules=(((0.51, -0.259, -0.23), (0.51, -0.259, -0.01), 0.04),),  # the riser on the table
     workspace_min_m=(0.20, -1.30, -0.35),
     workspace_max_m=(1.30, 0.30, 0.80),
 )

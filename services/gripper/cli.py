@@ -38,7 +38,9 @@ def _run(args: argparse.Namespace) -> int:
         table["step_in_callback"] = True
     from handover_model import robots
 
-    table.setdefault("max_position_m", robots.active().gripper.stroke_m)  # the arm's gripper travel
+    gripper = robots.active().gripper  # the arm's gripper: its travel and its strongest grip (≤ 140 N)
+    table.setdefault("max_position_m", gripper.stroke_m)
+    table.setdefault("max_grip_force_n", min(gripper.force_max_n, 140.0))
     if args.param:
         params = dict(table.get("controller_params", {}))
         params.update(args.param)

@@ -243,7 +243,7 @@ def robot_defaults(table: dict[str, Any], robot: RobotDescription) -> dict[str, 
     table = dict(table)
     g = robot.giver
     stand_in = {"height_m": g.height_m, "arm_span_m": g.arm_span_m, "weight_kg": g.weight_kg,
-                "shoulder_x_task_m": g.shoulder_x_task_m}
+                "shoulder_x_task_m": g.shoulder_x_task_m, "posture": g.posture, "seat_height_m": g.seat_height_m}
     giver = table.get("giver", {})
     table["giver"] = {**stand_in, **giver} if isinstance(giver, dict) else giver
     timing = table.get("timing", {})
