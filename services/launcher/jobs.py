@@ -49,6 +49,14 @@ def handover_job_line(episodes: int) -> str:
     return f"job: handover ({episodes or 'unlimited'} episode{'s' if episodes != 1 else ''})"
 
 
+def robot_line() -> str:
+    """The line that names the run's arm (the profile's ``[robot]``, or ``--robot``)."""
+    from handover_model import robots
+
+    arm = robots.active()
+    return f"robot: {arm.name} ({arm.title})"
+
+
 def handover_job(episodes: int, episode_timeout_s: float, abort_reason: Callable[[], str | None],
                  say: Callable[[str], None], supervisor_pid: Callable[[], int | None] | None,
                  delivery_pids: tuple[int, ...]) -> Callable[[ServiceNode], JobOutcome]:
@@ -56,6 +64,7 @@ def handover_job(episodes: int, episode_timeout_s: float, abort_reason: Callable
     from services.launcher.handover_job import run_handover_job
 
     def run(node: ServiceNode) -> JobOutcome:
+        say(robot_line())
         say(handover_job_line(episodes))
         return handover_outcome(run_handover_job(node, episodes, abort_reason, say, episode_timeout_s,
                                                  supervisor_pid, delivery_pids))
@@ -68,6 +77,7 @@ def demo_job(abort_reason: Callable[[], str | None], say: Callable[[str], None])
     from services.launcher.demo import run_demo
 
     def run(node: ServiceNode) -> JobOutcome:
+        say(robot_line())
         say("job: joint-space demo")
         return demo_outcome(run_demo(node, abort_reason))
 

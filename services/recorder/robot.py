@@ -10,10 +10,11 @@ Model (`RecorderConfig.robot_model`):
   head, hidden by the blueprint anyway) and the entities left without geometry are dropped, the
   rest is kept: the static joint transforms (``tf_static``), the collision cylinders and boxes
   (arms, grippers) and the URDF's small visual primitives (display, sonar ring, hand camera),
-  one chunk per entity (the loader's three per entity cost ~1 kB each). Collision meshes in STL
-  (the arms whose links have no primitive shapes: Panda 136 kB, UR5 280 kB) are kept too. A
-  torso that has only meshes (the default arm's) is drawn as the convex hull of its collision
-  mesh (193 vertices, 382 triangles, hull by coal/Qhull) at the torso's visual entity.
+  one chunk per entity (the loader's three per entity cost ~1 kB each). An arm whose links have
+  only meshes (Panda, UR5, SO-ARM101) is drawn as the convex hulls of its STL collision meshes
+  (hull by coal/Qhull, a few hundred vertices each), at the collision entities; a torso that
+  has only meshes (the default arm's) as the convex hull of its collision mesh (193 vertices,
+  382 triangles) at the torso's visual entity.
 - ``meshes`` (~16 MB): `rr.log_file_from_path(urdf)`: every Collada mesh. The Rerun 0.41 viewer
   can import only the torso's (the others use ``<polylist>``); the arms are drawn with the same
   collision cylinders as in ``primitives``.
@@ -44,6 +45,8 @@ log = logging.getLogger(__name__)
 
 #: Colour of the torso's hull (dark grey, RGB).
 TORSO_RGB = (60, 60, 60)
+#: Colour of the links' hulls of an arm drawn by its STL collision meshes (light grey, RGB).
+LINK_RGB = (190, 190, 195)
 
 
 def _mesh_file(urdf: Path, link: str, kind: str) -> Path | None:
@@ -90,7 +93,6 @@ def primitive_model(chunks, keep: frozenset[str] = frozenset()) -> tuple[list, l
     for entity, group in by_entity.items():
         if "/collision_geometries/sphere/" in entity:
             continue
-        stl = "/collision_geometries/mesh/" in entity and any(_is_stl(c) for c in group)
         if len(group) == 1 and "_geometries/" not in entity:
             as_is.append(group[0])  # tf_static, the robot's root frame
             continue
@@ -98,8 +100,7 @@ def primitive_model(chunks, keep: frozenset[str] = frozenset()) -> tuple[list, l
         for batch in (c.to_record_batch() for c in group):
             for f, column in zip(batch.schema, batch.columns, strict=True):
                 meta = f.metadata or {}
-                asset = meta.get(b"rerun:archetype") == b"rerun.archetypes.Asset3D"
-                if meta.get(b"rerun:kind") == b"data" and (stl or not asset):
+                if meta.get(b"rerun:kind") == b"data" and meta.get(b"rerun:archetype") != b"rerun.archetypes.Asset3D":
                     fields.append(f)
                     arrays.append(column)
         has_geometry = any((f.metadata or {}).get(b"rerun:archetype") not in _PLACEMENT for f in fields)
@@ -108,13 +109,23 @@ def primitive_model(chunks, keep: frozenset[str] = frozenset()) -> tuple[list, l
     return as_is, merged
 
 
-def _is_stl(chunk) -> bool:
-    """Whether `chunk` holds an Asset3D whose media type is STL."""
-    batch = chunk.to_record_batch()
-    names = [f.name for f in batch.schema]
-    if "Asset3D:media_type" not in names:
-        return False
-    return "stl" in str(batch.column(names.index("Asset3D:media_type")).to_pylist()).lower()
+def stl_collision_meshes(urdf: Path, robot_name: str) -> dict[str, Path]:
+    """Entity (as Rerun's URDF loader names it) → file of every STL collision mesh of `urdf`,
+    resolved with ``ROS_PACKAGE_PATH``."""
+    roots = [Path(p) for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+    out = {}
+    for link in ET.parse(urdf).getroot().iter("link"):
+        for k, collision in enumerate(link.findall("collision")):
+            for node in collision.iterfind("geometry/mesh"):
+                name = node.get("filename", "")
+                if not name.lower().endswith(".stl"):
+                    continue
+                relative = name.removeprefix("package://")
+                candidates = [r / relative for r in roots] if name.startswith("package://") else [urdf.parent / name]
+                found = next((c for c in candidates if c.is_file()), None)
+                if found is not None:
+                    out[f"/{robot_name}/collision_geometries/mesh/{link.get('name')}/collision_{k}"] = found
+    return out
 
 
 class RobotModel:
@@ -133,10 +144,14 @@ class RobotModel:
             rec.log_file_from_path(path, static=True)
         else:
             torso_entity = f"/{self.robot_name}/visual_geometries/torso/visual_0"
-            as_is, merged = primitive_model(self.tree.stream(include_joint_transforms=True), frozenset({torso_entity}))
+            hulls = stl_collision_meshes(path, self.robot_name)  # arms drawn by their meshes only
+            as_is, merged = primitive_model(self.tree.stream(include_joint_transforms=True),
+                                            frozenset({torso_entity, *hulls}))
             rr.send_chunks(as_is, recording=rec)
             for entity, batch in merged:
                 rec.send_record_batch(batch, index=None, entity_path=entity)
+            for entity, mesh in hulls.items():
+                rec.log(entity, convex_hull_mesh(mesh, LINK_RGB), static=True)
             torso = _mesh_file(path, "torso", "collision")
             if torso is not None:
                 rec.log(torso_entity, convex_hull_mesh(torso, TORSO_RGB), static=True)
