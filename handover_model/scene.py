@@ -4,17 +4,18 @@ Every service that needs the geometry of the handover scene reads it from here, 
 simulator, the tracker, the planner and the motion service agree.
 
 Frames:
-- `base`: Baxter's base frame (x forward, y left, z up), origin at the torso centre,
-  `BASE_HEIGHT_ABOVE_FLOOR_M` above the floor (the standard pedestal).
+- `base`: the scene's frame (x forward, y left, z up): the default arm's base frame, origin at
+  its torso centre, `BASE_HEIGHT_ABOVE_FLOOR_M` above the floor (its standard pedestal). Every
+  other arm's base is placed in it (`handover_model.robots.RobotDescription.base_xyz_m`).
 - task plane (thesis §2.2, Fig. 2): the vertical plane through giver, receiver and the
   transfer point. Its origin is the middle of the table top; its x axis points from the
-  giver (Baxter) to the receiver, and is Baxter's +x; its z axis is up. The plane is the
-  x–z plane of `base` at y = `TASK_PLANE_Y_M` (through Baxter's right shoulder), so a task
+  giver (the robot) to the receiver, and is the scene's +x; its z axis is up. The plane is the
+  x–z plane of `base` at y = `TASK_PLANE_Y_M` (through the giver's shoulder), so a task
   point (x, z) is the base point (TASK_ORIGIN_X_M + x, TASK_PLANE_Y_M, TABLE_TOP_Z_M + z).
 
 Layout (thesis Fig. 2): actors 100 cm apart across a table 60 cm deep and 70 cm high; the
 giver's and the receiver's shoulders lie in the task plane, ±50 cm from its origin along x.
-The receiver faces Baxter (−x) and receives with the right hand, whose shoulder is in the
+The receiver faces the robot (−x) and receives with the right hand, whose shoulder is in the
 task plane; the receiver's torso is therefore offset toward −y by half a shoulder width.
 """
 
@@ -28,7 +29,8 @@ TABLE_DEPTH_M = 0.60
 TABLE_WIDTH_M = 0.75
 ACTOR_SEPARATION_M = 1.00
 
-#: Baxter's right shoulder (right_upper_shoulder frame) in `base`, from the URDF.
+#: The giver's shoulder in `base`: the default arm's right shoulder (right_upper_shoulder
+#: frame, from its URDF); every other arm is placed in this scene (`handover_model.robots`).
 ROBOT_RIGHT_SHOULDER_BASE_M = np.array([0.064, -0.259, 0.130])
 
 TASK_PLANE_Y_M = float(ROBOT_RIGHT_SHOULDER_BASE_M[1])

@@ -1,4 +1,4 @@
-"""Simulated joint position servo of Baxter's right arm (no bus, no clock: pure stepping).
+"""Simulated joint position servo of the robot's arm (no bus, no clock: pure stepping).
 
 Model per joint, with target q*, velocity feed-forward v_ff (the target's own rate, 0 when
 not given), position q, time constant τ, velocity limit v_max and limits [q_lo, q_hi]:

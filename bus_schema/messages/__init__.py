@@ -5,7 +5,7 @@ All messages are frozen msgspec Structs encoded as MessagePack maps, so a field 
 ones. Every message starts with the common header (`seq`, `stamp_ns`, `source`).
 
 Frames (DESIGN §5):
-- `base`: Baxter's base frame, x forward, y left, z up (metres).
+- `base`: the scene's base frame, x forward, y left, z up (metres).
 - task plane: x from giver to receiver, z up, origin at the middle of the table top.
 - gripper frame of the transfer loop (thesis Fig. 15): x along the pull toward the receiver,
   y DOWN (a positive `accel_y_m_s2` means the object accelerates downward), z = x × y.

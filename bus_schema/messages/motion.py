@@ -33,7 +33,7 @@ class TransferTarget(Message, frozen=True, kw_only=True):
     Attributes:
         position_task_m: (x, z) in the task plane (x giver→receiver, z up, origin at the
             middle of the table top).
-        position_base_m: the same point in Baxter's `base` frame.
+        position_base_m: the same point in the scene's `base` frame.
         cost: E_DJT at the optimum, N² m².
         active_constraints: constraints active at the optimum (e.g. ``table``,
             ``receiver_reach``).

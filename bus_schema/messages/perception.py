@@ -1,4 +1,4 @@
-"""What the (simulated) Kinect and the tracker see, in Baxter's `base` frame (x forward, y left,
+"""What the (simulated) Kinect and the tracker see, in the scene's `base` frame (x forward, y left,
 z up, m): the skeleton, the depth image, the receiver's state and the object on the table.
 """
 

@@ -69,7 +69,7 @@ class ObjectParams:
 
 @dataclass(frozen=True)
 class GripperParams:
-    """Gripper actuator: thesis eq 3.21 spring and Baxter's position loop.
+    """Gripper actuator: thesis eq 3.21 spring and the thesis robot's position loop.
 
     spring_n_per_m: k of eq 3.21 (5 N/cm = 500 N/m).
     loop_rate_hz: the position loop latches a new target at this rate (25 Hz, §3.6).

@@ -1,5 +1,5 @@
 """Simulated Kinect: depth images and an error-prone OpenNI-style skeleton of the handover
-scene (receiver, table, object, Baxter's arm). See `robot_sim.kinect.sim.KinectSim`."""
+scene (receiver, table, object, the robot's arm). See `robot_sim.kinect.sim.KinectSim`."""
 
 from robot_sim.kinect.camera import KinectCamera
 from robot_sim.kinect.receiver import BodySize, ReceiverBody

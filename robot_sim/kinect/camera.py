@@ -3,16 +3,16 @@
 The one documented place for the sensor's pose (the rest of the scene is in
 `handover_model.scene`). Frames:
 
-- `base`: Baxter's base frame (x forward, y left, z up), metres.
+- `base`: the scene's base frame (x forward, y left, z up), metres.
 - optical frame of the camera: z forward along the optical axis, x right, y down (the
   convention of `bus_schema.messages.DepthImage`).
 
-Placement: the Kinect is mounted on top of Baxter's head (a common Baxter set-up), 0.95 m
+Placement: the Kinect is mounted above the robot's base (on the default arm's head, a common set-up), 0.95 m
 above the base origin (1.88 m above the floor), looking down across the table at the
 receiver. From there it sees the receiver's front from the head down to the thighs, the
 table top, the object on it and the robot's right arm from behind and above, so the robot's
 gripper can come between the sensor and the receiver's hand during the final approach, as in
-Mincelli et al.'s set-up. Baxter's head is behind the sensor and is not drawn.
+Mincelli et al.'s set-up. The head is behind the sensor and is not drawn.
 
 Intrinsics: Kinect v1 depth camera binned to 320x240 (57° x 43° field of view,
 f ≈ 285 px). Depth is measured along the optical axis (the z coordinate), not along the ray.
@@ -41,7 +41,7 @@ KINECT_BASELINE_M = 0.075
 KINECT_FULL_RES_FOCAL_PX = 571.0
 KINECT_DISPARITY_STEP_PX = 1.0 / 8.0
 
-#: Sensor position in `base` (m): on top of Baxter's head.
+#: Sensor position in `base` (m): on top of the default arm's head.
 KINECT_POSITION_BASE_M = np.array([0.10, 0.0, 0.95])
 #: The point the optical axis passes through (m, `base`): the receiver's torso, 23 cm above
 #: the table top.

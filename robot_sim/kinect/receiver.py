@@ -5,8 +5,8 @@ table (`handover_model.body`: Drillis & Contini (1966), the upper limb scaled so
 span, fingertip to fingertip, equals H as it does on average in adults). The tracker's
 body-dimension estimator and the planner read the same table.
 
-Frames: `base` (x forward from Baxter, y left, z up), metres. The receiver stands (or sits)
-across the table facing Baxter (−x); facing −x, its right hand side is +y. Its right
+Frames: `base` (x forward from the robot, y left, z up), metres. The receiver stands (or sits)
+across the table facing the robot (−x); facing −x, its right hand side is +y. Its right
 (receiving) shoulder lies in the task plane (`handover_model.scene`).
 """
 

@@ -1,6 +1,6 @@
 """Depth of a scene whose static part never moves, frame after frame, casting only what moved.
 
-`SceneDepthRenderer` renders the static part (floor, table, Baxter's torso, the receiver's
+`SceneDepthRenderer` renders the static part (floor, table, the robot's fixed parts, the receiver's
 legs) once. Each frame it takes the moving primitives (the arm's capsules, the receiver's
 upper body, the object's box) and keeps, per primitive, the depth tile cast over its
 conservative pixel rectangle (`DepthRenderer.capsule_rects`), keyed by the primitive's exact

@@ -1,4 +1,4 @@
-"""The simulated Kinect: a receiver, the table, the object and Baxter's arm, seen in depth,
+"""The simulated Kinect: a receiver, the table, the object and the robot's arm, seen in depth,
 plus the skeleton a real tracker would report.
 
 Use::
@@ -9,13 +9,13 @@ Use::
     depth_pub.put(**frame.depth_fields)                  # bus_schema.messages.DepthImage
     frame.truth.right_hand_m                             # ground truth (for SimTruth)
 
-Depth cost: the static scene (floor, table, Baxter's torso, the receiver's legs) is cast
+Depth cost: the static scene (floor, table, the robot's fixed parts, the receiver's legs) is cast
 once; each frame casts only the primitives that moved since the previous frame and reuses
 the image when nothing moved (`robot_sim.kinect.scene_depth`), and quantises into kept
 buffers (`robot_sim.kinect.quantise`). The images equal those of the full ray cast
 (`KinectSim.reference_depth_m` with `kinect_depth_mm`) bit for bit, noise included.
 
-Frames: everything in Baxter's `base` (x forward, y left, z up), metres; the camera's pose
+Frames: everything in the scene's `base` (x forward, y left, z up), metres; the camera's pose
 and intrinsics are in `robot_sim.kinect.camera`, the table and the receiver's placement in
 `handover_model.scene`.
 """
@@ -141,7 +141,7 @@ class KinectSim:
         seed: random seed (skeleton errors, depth noise).
         scenario: what is in the scene.
         camera: sensor pose and intrinsics (default: `robot_sim.kinect.camera`).
-        arm_geometry: Baxter's arm capsules (default: loads the Baxter model).
+        arm_geometry: the robot's arm capsules (default: the active arm's).
     """
 
     def __init__(
@@ -222,7 +222,7 @@ class KinectSim:
         """Render the frame at time `t_s` (s, increasing).
 
         Args:
-            q_arm_rad: Baxter right-arm joints (7,), rad.
+            q_arm_rad: the arm's joints (n,), rad.
             object_position_m: object centre (m, `base`); default: waiting on the table at
                 the active arm's `object_pick_base_m`.
             right_hand_m: where the receiver's right hand is (m, `base`), when another model

@@ -1,4 +1,4 @@
-"""Backends of the bridge behind one interface: simulation now, Baxter hardware later.
+"""Backends of the bridge behind one interface: the simulated arm, or the Baxter hardware backend.
 
 A backend owns the robot (real or simulated). The bridge node calls, once per tick:
 `step(dt_s)`, then `command(target_rad)` or `hold()`, then `read()`. Extra publications of a
@@ -135,11 +135,11 @@ class SimBackend:
             self._at_rest = (after, None if any_dt else dt_s, inputs)
 
     def catch_up(self, gap_s: float) -> None:
-        """The simulated robot did not stop when the bridge stalled: like Baxter's own
+        """The simulated robot did not stop when the bridge stalled: like the default arm's own
         controller it goes on toward the last position command for up to
         `robot_command_timeout_s`, then holds for the rest of the gap (the scene, if any,
         advances with it). The command's velocity feed-forward is not carried on: it belongs to
-        a streamed trajectory that stopped coming (Baxter's position mode servoes to the last
+        a streamed trajectory that stopped coming (its position mode servoes to the last
         position it was given)."""
         if gap_s <= 0.0:
             return

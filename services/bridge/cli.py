@@ -1,4 +1,4 @@
-"""`handover-bridge`: the robot bridge (simulated Baxter now; hardware backend later)."""
+"""`handover-bridge`: the robot bridge (the simulated arm, or a hardware backend)."""
 
 from __future__ import annotations
 

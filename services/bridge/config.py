@@ -68,11 +68,11 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
             docs/baxter.md; run it with ``python -m services.bridge.baxter``).
         rate_hz: joint-state publication and servo rate, Hz.
         command_timeout_s: hold the arm when no fresh joint command arrived for this long, s
-            (Baxter's own time-out is 0.2 s).
+            (the default arm's own time-out is 0.2 s).
         servo_time_constant_s: first-order lag of the simulated joint servo, s.
         sim_robot_command_timeout_s: the simulated robot's own joint-command time-out, s: when
             the bridge's loop stalls (starved of CPU, frozen) for longer than two periods, the
-            simulated arm goes on with its last command this long and then holds, as Baxter's
+            simulated arm goes on with its last command this long and then holds, as the default arm's
             controller does (its ``joint_command_timeout``, 0.2 s), instead of freezing with
             the bridge.
         limit_tolerance_rad: how far outside a joint limit a command may be before it is

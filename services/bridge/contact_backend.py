@@ -7,7 +7,7 @@ Each bridge tick (10 ms at 100 Hz) advances `robot_sim.contact.plant.ContactPlan
   y down), with the plant's noise and bias;
 - `sensors/object_motion`: the optical sensor's counts and the slip velocity and a_y
   estimates;
-- `sim/truth`: object, receiver hand and tool in Baxter's `base` frame, who holds the object,
+- `sim/truth`: object, receiver hand and tool in the scene's `base` frame, who holds the object,
   whether it was dropped.
 
 Frames: the plant lives in the gripper frame with its origin at the grasp point; a plant point

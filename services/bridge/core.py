@@ -9,7 +9,7 @@ Rules:
   bad command) until the next valid command.
 - A command may name a subset of the joints: the others keep their last target.
 - When no valid command arrived for `command_timeout_s`, the arm holds its position
-  (Baxter's own behaviour; 0.2 s by default).
+  (the default arm's own behaviour; 0.2 s by default).
 """
 
 from __future__ import annotations

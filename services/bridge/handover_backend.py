@@ -6,7 +6,7 @@ latest `gripper/command` force, and publishes
 
 - `sensors/wrist_wrench`, `sensors/object_motion`: what the sensors of a real gripper would
   read (zero load and no surface while nothing is held);
-- `sim/truth`: object, receiver hand and tool in Baxter's `base` frame, who holds the object,
+- `sim/truth`: object, receiver hand and tool in the scene's `base` frame, who holds the object,
   whether it was dropped.
 
 The scene's receiver also drives the simulated Kinect's body (the `kinect` service reads

@@ -120,7 +120,7 @@ def main(argv: list[str] | None = None) -> int:
     scene.add_argument("--receiver", choices=["taking", "dropping", "bumping", "hesitating", "absent"],
                        default=None, help="the receiver's behaviour (default: the profile's, taking)")
     scene.add_argument("--robot", choices=sorted(robots.BUILTIN), default=None,
-                       help="the arm (default: the profile's [robot] model, baxter); docs/robots.md")
+                       help="the arm (default: the profile's [robot] model); docs/robots.md")
     scene.add_argument("--posture", choices=["standing", "sitting"], default=None,
                        help="the receiver's posture (default: the profile's, standing)")
     scene.add_argument("--episodes", type=int, default=None,

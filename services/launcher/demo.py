@@ -1,7 +1,7 @@
 """The joint-space demo job: drive the arm through a few waypoints and check it followed.
 
 Until the supervisor exists this is what `handover-up` runs by default. Each segment is a
-jerk-limited Ruckig trajectory (at half Baxter's velocity limits) streamed as joint commands
+jerk-limited Ruckig trajectory (at half the arm's velocity limits) streamed as joint commands
 at 100 Hz; the job then compares the measured joint state with the commands.
 """
 

@@ -1,4 +1,4 @@
-"""Motion service: PlaCo IK and Ruckig trajectories for Baxter's right arm (thesis §4.1).
+"""Motion service: PlaCo IK and Ruckig trajectories for the robot's arm (thesis §4.1).
 
 Import the pieces from their modules: `config.MotionConfig`, `ik.ArmIk`, `paths`,
 `core.MotionController`, `preview.preview`; errors derive from `errors.MotionError`.

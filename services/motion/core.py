@@ -67,7 +67,7 @@ class MotionController:
 
     Args:
         config: service configuration.
-        ik: the PlaCo IK (one per controller; loading Baxter takes ~1.5 s).
+        ik: the PlaCo IK (one per controller; loading the arm takes ~1.5 s).
     """
 
     def __init__(self, config: MotionConfig, ik: ArmIk | None = None) -> None:

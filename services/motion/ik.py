@@ -1,6 +1,6 @@
-"""Inverse kinematics of Baxter's right arm with PlaCo.
+"""Inverse kinematics of the robot's arm with PlaCo.
 
-Frames: every pose is the `right_gripper` tool frame in Baxter's `base` frame (x forward,
+Frames: every pose is the `right_gripper` tool frame in the scene's `base` frame (x forward,
 y left, z up), metres; rotations are 3×3 matrices whose columns are the tool axes in `base`.
 
 The `right_gripper` frame of the example-robot-data URDF sits between the fingertips of the
@@ -14,10 +14,10 @@ vertical plane that holds the pull and the weight) is `UPRIGHT_ROTATION`:
     y_tool = +y_base (horizontal: the pads' faces are vertical planes parallel to the task
                       plane, and the grip force is normal to the task plane),
     x_tool = −x_base.
-The other yaw (y_tool = −y_base) is the same grasp but puts Baxter's wrist roll `right_w2`
+The other yaw (y_tool = −y_base) is the same grasp but puts the default arm's wrist roll `right_w2`
 at its ±3.06 rad limit for typical transfer points, so it is not used.
 
-The IK is a PlaCo `KinematicsSolver` on the full Baxter model with the floating base and
+The IK is a PlaCo `KinematicsSolver` on the arm's full model with the floating base and
 every joint except the right arm's seven masked (locked at zero): position task and
 orientation task on `right_gripper` (weight 1 each), a joints (posture) task toward a comfortable
 posture with a small weight, joint position limits and joint velocity limits.

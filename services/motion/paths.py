@@ -1,6 +1,6 @@
 """Paths and trajectories: minimum-jerk Cartesian reaches and Ruckig joint moves and stops.
 
-Units: metres, radians, seconds; Cartesian quantities in Baxter's `base` frame.
+Units: metres, radians, seconds; Cartesian quantities in the scene's `base` frame.
 
 Minimum-jerk reach (thesis §2.4.2 and §4.1, after Flash & Hogan): each axis follows the
 quintic that minimises the integral of squared jerk between the boundary states. From rest to

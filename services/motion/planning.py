@@ -9,7 +9,7 @@
 - a stop: the fastest Ruckig brake to rest within the stop limits.
 
 Joint states are (q, dq, ddq): positions (n,) rad, velocities (n,) rad/s, accelerations (n,)
-rad/s²; tool quantities are in Baxter's `base` frame, m, m/s, m/s².
+rad/s²; tool quantities are in the scene's `base` frame, m, m/s, m/s².
 """
 
 from __future__ import annotations

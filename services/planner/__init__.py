@@ -8,7 +8,7 @@ Modules, one job each:
   refinement (`optimum`, `point_model`).
 - `transfer_plan`: bodies and places → dyad → DJT optimum in `base` with its reach timing.
 - `reach_timing`: minimum-jerk reach duration and peak speed (§2.4.2).
-- `frames`: task plane ↔ Baxter `base` frame.
+- `frames`: task plane ↔ scene `base` frame.
 - `core`: the planner as the service uses it (inputs → TransferPlan, replan policy).
 - `experiment`: the four candidate positions of the human–robot experiment (§2.5.1).
 - `figures`: the cost-map figure.

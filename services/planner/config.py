@@ -12,7 +12,7 @@ Example (every key optional; the values shown are the defaults)::
     weight_kg = 100.0
     posture = "standing"
     is_robot = true                   # robot: its shoulder stays where it is (no lean)
-    shoulder_x_task_m = -0.5          # Baxter's right shoulder, task plane x
+    shoulder_x_task_m = -0.5          # the robot's shoulder (its stand-in's), task plane x
 
     [services.planner.config.receiver_default]   # used for what the tracker does not report
     height_m = 1.75
@@ -32,7 +32,7 @@ Example (every key optional; the values shown are the defaults)::
     use_measured_shoulder_height = true
     table_height_m = 0.70
 
-    [services.planner.config.frame]   # task plane in Baxter's base frame
+    [services.planner.config.frame]   # task plane in the scene's base frame
     origin_base_m = [0.564, -0.259, -0.23]
     x_axis_base_xy = [1.0, 0.0]
 
@@ -82,7 +82,7 @@ class _Cfg(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fields=True
 
 
 class GiverConfig(_Cfg, frozen=True, kw_only=True):
-    """The giver's body and place (default: Baxter as a 190 cm, 100 kg, 200 cm-span human)."""
+    """The giver's body and place (default: the robot's stand-in, `handover_model.robots.GiverStandIn`)."""
 
     height_m: float = 1.90
     arm_span_m: float = 2.00
@@ -138,7 +138,7 @@ class ModelConfig(_Cfg, frozen=True, kw_only=True):
 
 
 class FrameConfig(_Cfg, frozen=True, kw_only=True):
-    """Task plane in Baxter's `base` frame (see `frames.TaskPlaneFrame`)."""
+    """Task plane in the scene's `base` frame (see `frames.TaskPlaneFrame`)."""
 
     origin_base_m: tuple[float, float, float] = DEFAULT_ORIGIN_BASE_M
     x_axis_base_xy: tuple[float, float] = (1.0, 0.0)

@@ -1,4 +1,4 @@
-"""Task plane ↔ Baxter `base` frame.
+"""Task plane ↔ scene `base` frame.
 
 The task plane (thesis §2.2, Fig. 2) is a vertical plane: origin at the middle of the table
 top, x from the giver (the robot) toward the receiver, z up. It is placed in `base` (x forward,
@@ -10,7 +10,7 @@ y left, z up, metres) by two configurable quantities:
 
 A task point (x, z) is the `base` point ``origin + x·(ax, ay, 0) + z·(0, 0, 1)``. The defaults
 come from `handover_model.scene`: the robot stands at the table facing the receiver, the plane runs
-along `base` +x through Baxter's right shoulder (y = scene.TASK_PLANE_Y_M), and its origin is
+along `base` +x through the giver's shoulder (y = scene.TASK_PLANE_Y_M), and its origin is
 half the actor separation in front of that shoulder, on the table top.
 """
 

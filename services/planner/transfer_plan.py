@@ -1,7 +1,7 @@
 """The DJT transfer plan: bodies and places in, the transfer point and the reach timing out.
 
 Pure logic, no I/O. `plan_transfer` builds the dyad (anthropometrics → two planar arms placed
-in the task plane, `build_dyad`), runs the DJT optimisation, maps the optimum to Baxter's
+in the task plane, `build_dyad`), runs the DJT optimisation, maps the optimum to the scene's
 `base` frame and adds the reach timing.
 
 Placement assumption (explicit, configurable): a human actor's shoulder joint is placed
@@ -10,7 +10,7 @@ lean and shoulder protraction of a real reach. With a shoulder fixed over the fe
 (span-scaled Drillis & Contini chain, 0.34 H shoulder → grasp) is shorter than the published
 functional forward reach, and at the thesis's 100 cm separation the two workspaces overlap
 so little that the optimum sits on a reach limit: the "receiver sitting → lower point"
-finding then fails (see docs/planner.md). The robot giver's shoulder stays where Baxter's is.
+finding then fails (see docs/planner.md). The robot giver's shoulder stays where the robot's is.
 
 Upper-arm cap (`ModelConfig.max_upper_arm_elevation_deg`, default 90°: upper arm at most
 horizontal): the joint-torque cost is symmetric about the horizontal, so where a receiver's
@@ -110,7 +110,7 @@ class TransferPlan:
 
     Attributes:
         position_task_m: transfer point (x, z) in the task plane, m.
-        position_base_m: the same point in Baxter's `base` frame, m.
+        position_base_m: the same point in the scene's `base` frame, m.
         cost: E_DJT at the point, N² m².
         active_constraints: constraints binding at the point.
         reach: suggested minimum-jerk reach from the reach start to the point.

@@ -16,7 +16,7 @@ one component per message field); their panels plot them through component mappi
 written twice.
 
 The 3-D view is set up explicitly rather than left to the viewer's heuristics: its target frame
-is Baxter's ``base`` (the frame the URDF's links hang from and every ``world/…`` entity is
+is the scene's ``base`` (the frame the URDF's links hang from and every ``world/…`` entity is
 declared in with `CoordinateFrame`), its axes are x forward, y left, z up (FLU), and it shows
 ``/world/**`` (human skeleton, hands, object, target, tool path, markers) and the robot.
 Without an explicit target frame the view's frame is the one of its origin entity ``/``
@@ -111,7 +111,7 @@ def static_styles() -> list[tuple[str, Any]]:
                                                                 marker_sizes=[8.0])))
     out.append(("world", rr.ViewCoordinates.FLU))
     # The URDF's links live in named frames under `base`; everything under /world is in
-    # Baxter's base frame too: say so explicitly, so one 3-D view shows both.
+    # the scene's base frame too: say so explicitly, so one 3-D view shows both.
     out += [(entity, rr.CoordinateFrame("base")) for entity in WORLD_ENTITIES]
     return out
 
@@ -121,7 +121,7 @@ def static_styles() -> list[tuple[str, Any]]:
 EYE_POSITION_M = (1.9, -1.8, 1.0)
 EYE_TARGET_M = (0.6, -0.3, 0.05)
 
-#: Frame of the 3-D view: Baxter's base (x forward, y left, z up, m).
+#: Frame of the 3-D view: the scene's base (x forward, y left, z up, m).
 BASE_FRAME = "base"
 
 
@@ -129,7 +129,7 @@ BASE_FRAME = "base"
 def links_without_importable_mesh(urdf: Path) -> tuple[str, ...]:
     """Links of `urdf` whose visual mesh the Rerun 0.41 viewer cannot import.
 
-    Its Collada importer rejects ``<polylist>`` geometry (every Baxter mesh but the torso's):
+    Its Collada importer rejects ``<polylist>`` geometry (every mesh of the default arm but the torso's):
     such a link would draw nothing and the viewer would pop up one warning per mesh. Mesh
     paths ``package://…`` are resolved with ``ROS_PACKAGE_PATH``; unreadable files count as
     not importable.
@@ -176,7 +176,7 @@ def _robot_overrides(robot_name: str) -> dict[str, rrb.EntityBehavior]:
 
 def view_3d(robot_name: str | None) -> rrb.Spatial3DView:
     """The combined 3-D view: robot, human skeleton and hands, object, target, tool path, markers,
-    all in Baxter's `base` frame."""
+    all in the scene's `base` frame."""
     contents = ["+ /world/**"] + ([f"+ /{robot_name}/**"] if robot_name else [])
     return rrb.Spatial3DView(
         name="Handover (base frame)", origin="/", contents=contents,

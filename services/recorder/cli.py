@@ -88,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--output", help="recording file (.rrd); default: <output-dir>/handover-<run-id>.rrd")
     parser.add_argument("--output-dir", help="folder for recordings (default: the profile's, else recordings/)")
     parser.add_argument("--run-id", help="name of this run (default: the start time)")
-    parser.add_argument("--no-urdf", action="store_true", help="do not log Baxter's 3-D model (robot_model = none)")
+    parser.add_argument("--no-urdf", action="store_true", help="do not log the arm's 3-D model (robot_model = none)")
     parser.add_argument("--depth-every", type=int, metavar="N",
                         help="record depth images, one in N (1: all; 0: not subscribed); overrides the profile")
     sub = parser.add_subparsers(dest="command")

@@ -3,7 +3,7 @@
 Example (deploy/sim.toml)::
 
     [services.recorder.config]
-    robot_model = "primitives"   # Baxter as its URDF's boxes and cylinders (+ torso hull), ~30 kB
+    robot_model = "primitives"   # the arm as its URDF's boxes and cylinders (+ torso hull), ~30 kB
     depth_every = 0              # depth images are not even received (0), or one in N
     flush_period_s = 1.0         # written and flushed this often: the most a SIGKILL loses
 """
@@ -18,7 +18,7 @@ from msgspec import Meta
 from bus_schema import TOPICS, Topic, topics
 from services.recorder.errors import RecorderError
 
-#: How Baxter is drawn: ``primitives`` (the URDF's collision boxes and cylinders, its small
+#: How the arm is drawn: ``primitives`` (the URDF's collision boxes and cylinders, its small
 #: visual primitives and a convex hull of the torso: ~30 kB per recording), ``meshes`` (every
 #: Collada mesh of the URDF, as `rr.log_file_from_path` loads it: ~16 MB per recording) or
 #: ``none`` (no robot in the 3-D view; the joint series are still recorded).
@@ -36,8 +36,8 @@ class RecorderConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_f
         depth_every: 0 (default): ``perception/depth`` is not subscribed, so its 150 kB images
             (4.6 MB/s at 30 Hz) never reach the process; N ≥ 1: subscribe, record every
             frame's numbers and the image of one frame in N (1: every image, 30 Hz).
-        robot_model: how Baxter is drawn (`RobotModelMode`).
-        robot_pose_every: joint transforms of Baxter's model (the 3-D robot's pose) for one
+        robot_model: how the arm is drawn (`RobotModelMode`).
+        robot_pose_every: joint transforms of the arm's model (the 3-D robot's pose) for one
             joint state in N (the joint positions themselves are recorded for every message).
     """
 

@@ -6,7 +6,7 @@
   `event_is_warning`;
 - the 3-D look of one-point entities (`POINT_STYLES`), skeleton bones, gripper mode codes.
 
-Conventions: the 3-D world is Baxter's `base` frame (x forward, y left, z up, metres) under
+Conventions: the 3-D world is the scene's `base` frame (x forward, y left, z up, metres) under
 ``world/…``; supervisor, motion and gripper events are text under ``events``.
 """
 

@@ -14,7 +14,7 @@
 | ``motion/goal`` (Cartesian) | ``world/motion/goal`` | point |
 | ``gripper/state`` | ``signals/gripper_mode`` | mode as a number (`GRIPPER_MODE_CODE`) |
 
-All 3-D entities are in Baxter's `base` frame (x forward, y left, z up, m); their looks (radius,
+All 3-D entities are in the scene's `base` frame (x forward, y left, z up, m); their looks (radius,
 colour) are static (`blueprint.static_styles`). Pure apart from building Rerun column objects.
 """
 

@@ -19,7 +19,7 @@ for minutes loses its oldest messages (gaps in the recorded ``seq``) and never b
 
 Start-up order (the launcher waits for the recorder before it starts anything else): open the
 session, subscribe and declare the liveliness token first, and only then import Rerun and load
-Baxter's model; messages that arrive meanwhile wait in the channels. On SIGTERM/SIGINT the
+the arm's model; messages that arrive meanwhile wait in the channels. On SIGTERM/SIGINT the
 recorder keeps listening until the bus has been quiet for 0.15 s (at most 1 s: the last
 service's final messages may still be in flight), then writes, flushes and finalises the file
 (`finalise`: Rerun's footer, so that ``rerun rrd verify`` passes) before exit; on SIGKILL the

@@ -1,7 +1,7 @@
 """Environment for Rerun's native library, set before the recorder's first ``import rerun``.
 
 - ``MIMALLOC_PURGE_DELAY=0``: Rerun's native code allocates with mimalloc, which by default
-  keeps freed pages for reuse. Baxter's meshes (~30 MB) pass through the SDK once (encoded,
+  keeps freed pages for reuse. The default arm's meshes (~30 MB) pass through the SDK once (encoded,
   compressed, written; with ``robot_model = "primitives"`` the URDF loader still reads them
   before they are dropped) and then stayed resident: ~90 MB RSS measured. With a purge delay of
   0 ms mimalloc returns freed pages at once: the URDF's lasting cost falls to ~13 MB.

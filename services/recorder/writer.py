@@ -9,7 +9,7 @@ directly (tests, benchmarks). `pump()` collects and writes everything once per
   ``bus/<key>`` (every field of every message, `bus_columns`), at each message's own times:
   timeline ``time`` = the sender's `stamp_ns`, ``receive_time`` = when the bus received it (the
   source's receive time: the router's timestamp, see `node`; a negative one: the stamp);
-- the review entities of the batch (`derived`) are sent as columns (`send_columns`), Baxter's
+- the review entities of the batch (`derived`) are sent as columns (`send_columns`), the arm's
   joint transforms for one joint state in `robot_pose_every` (`robot.RobotModel`), the event
   log lines that changed (`review.EventLog`), depth images for one frame in `depth_every`;
 - the few messages the tool path, goal arrow and release marker need (`review.ReviewState`) are
@@ -142,7 +142,7 @@ class RecordingWriter:
             try:
                 self.robot = RobotModel(self.rec, self.config.robot_model, self.config.robot_pose_every)
             except Exception as exc:  # noqa: BLE001 - the recording is still useful without the model
-                log.warning("could not log Baxter's model: %s", exc)
+                log.warning("could not log the arm's model: %s", exc)
         styles: dict[str, list] = {}
         for entity, archetype in static_styles():
             styles.setdefault(entity, []).append(archetype)

@@ -80,7 +80,7 @@ def base_parser(prog: str, description: str) -> argparse.ArgumentParser:
                      formatter_class=HelpFormatter)
     group = parser.add_argument_group("bus and logging")
     group.add_argument("--profile", "--config", dest="profile", default=DEFAULT_PROFILE,
-                       help="deploy profile: a name under deploy/ (sim, baxter, …) or a path to a TOML file")
+                       help="deploy profile: a name under deploy/ (sim, …) or a path to a TOML file")
     group.add_argument("--endpoint", default=None,
                        help="Zenoh router endpoint to connect to, e.g. tcp/127.0.0.1:7447 (overrides the profile)")
     group.add_argument("--prefix", default=None,

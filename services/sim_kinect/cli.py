@@ -26,7 +26,7 @@ def _run(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     parser = base_parser(
         "handover-sim-kinect",
-        "Simulated Kinect: renders the receiver, the table, the object and Baxter's arm at 30 Hz "
+        "Simulated Kinect: renders the receiver, the table, the object and the robot's arm at 30 Hz "
         "(robot_sim.kinect) and publishes perception/skeleton, perception/depth and its ground "
         "truth sim/kinect_truth. Reads robot/joint_state (the arm) and, with --scene handover, "
         "sim/truth (the receiver's hand and the object from the bridge's handover scene). "

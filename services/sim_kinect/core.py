@@ -3,7 +3,7 @@ bus fields of a rendered frame. No I/O: `services.sim_kinect.node` does the bus 
 
 Inputs (all optional and possibly stale; the renderer uses the latest of each):
 
-- the arm posture, from `robot/joint_state` (names → Baxter's right-arm order, rad);
+- the arm posture, from `robot/joint_state` (names → the arm's joint order, rad);
 - in the ``handover`` scene, the receiver's right hand and the object centre, from
   `sim/truth` (m, `base` frame).
 """
@@ -25,7 +25,7 @@ POSITION_BOUND_M = 100.0
 
 
 def make_kinect_sim(config: KinectConfig) -> Any:
-    """The seeded `robot_sim.kinect.KinectSim` for `config` (loads Baxter's model: ~1 s)."""
+    """The seeded `robot_sim.kinect.KinectSim` for `config` (loads the arm's model: ~1 s)."""
     from robot_sim.kinect import KinectScenario, KinectSim
 
     target: tuple[float, float, float] | None = None

@@ -6,7 +6,7 @@ Each frame takes the latest `robot/joint_state` (the arm the camera sees) and, w
 renders with `robot_sim.kinect.KinectSim` and publishes `perception/skeleton`,
 `perception/depth` and `sim/kinect_truth`. Inputs may be stale: the latest one is used.
 Before the first joint state nothing is rendered (the camera would show an arm that is not
-there); a joint state without Baxter's seven right-arm joints is skipped with a warning.
+there); a joint state without the arm's joints is skipped with a warning.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ SERVICE_NAME = "kinect"
 
 def run_kinect(profile: Profile, config: KinectConfig) -> int:
     """Run the simulated Kinect until SIGINT/SIGTERM. Returns the exit code."""
-    # Build the simulator (Baxter's model, the body) before joining the bus: once the
+    # Build the simulator (the arm's model, the body) before joining the bus: once the
     # liveliness token is up, watchdogs expect the service to be responsive.
     sim = make_kinect_sim(config) if config.enabled else None
     warn = RateLimitedLog(log, 5.0)
@@ -58,7 +58,7 @@ def run_kinect(profile: Profile, config: KinectConfig) -> int:
                 q = arm_posture_rad(state.msg.names, state.msg.position_rad)
                 if q is None:
                     skipped += 1
-                    warn.warning("joints", "joint state without Baxter's 7 right-arm joints: frame skipped",
+                    warn.warning("joints", "joint state without the arm's joints: frame skipped",
                                  names=",".join(state.msg.names[:8]), skipped=skipped)
                     continue
                 latest_truth = truth.latest()

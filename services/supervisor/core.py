@@ -27,7 +27,7 @@ Phases (thesis Fig. 30, DESIGN §6 supervisor), at `rate_hz` (100 Hz):
   and stay stopped; the episode ends with the service named.
 
 The rules of each phase are in `phases`, the stop rules in `stops`, the episode's record and
-summary in `episode`. All times are the local monotonic clock (s); positions are Baxter's
+summary in `episode`. All times are the local monotonic clock (s); positions are the scene's
 `base` frame (m).
 """
 

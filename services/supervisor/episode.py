@@ -1,7 +1,7 @@
 """One handover episode's record: its goals to the motion service, what was measured, its
 outcome and the summary published at its end (pure, no I/O).
 
-Times are the local monotonic clock (s); positions are Baxter's `base` frame (m).
+Times are the local monotonic clock (s); positions are the scene's `base` frame (m).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 `core.Sequencer`'s phases from ``locate`` to ``retract``; the sequencer keeps the state and
 the verbs (enter a phase, send a goal, stop, retract, finish).
 
-All times are the local monotonic clock (s); positions are Baxter's `base` frame (m).
+All times are the local monotonic clock (s); positions are the scene's `base` frame (m).
 """
 
 from __future__ import annotations

@@ -12,7 +12,7 @@ state after every skeleton frame and for the object estimate after depth frames:
 
 Hand pipeline per skeleton frame: raw skeleton hand → (a) lag correction against the human's
 point cloud of the latest depth frame (robot points removed) → (b) robot proximity hold.
-Frames: Baxter's `base` frame, metres.
+Frames: the scene's `base` frame, metres.
 """
 
 from __future__ import annotations
@@ -95,7 +95,7 @@ class TrackerPipeline:
 
     Args:
         config: tracker configuration.
-        arm_geometry: Baxter's arm capsules and forward kinematics.
+        arm_geometry: the robot's arm capsules and forward kinematics.
     """
 
     def __init__(self, config: TrackerConfig, arm_geometry: ArmGeometry) -> None:

@@ -10,7 +10,7 @@
     that close.
 Plus the removal of the robot's own points from the cloud using its link geometry.
 
-Pure functions and small state machines; points in Baxter's `base` frame, metres.
+Pure functions and small state machines; points in the scene's `base` frame, metres.
 """
 
 from __future__ import annotations

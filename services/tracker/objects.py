@@ -12,7 +12,7 @@
 4. Position and size: x, y extents from the 2nd–98th percentiles of the blob's points (the
    camera sees the top face), height from the 98th percentile above the plane; the centre is
    halfway up.
-Positions in Baxter's `base` frame, metres.
+Positions in the scene's `base` frame, metres.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Depth images to 3-D points in Baxter's `base` frame.
+"""Depth images to 3-D points in the scene's `base` frame.
 
 A pixel (u, v) with depth z (along the optical axis) is the optical-frame point
 (z (u − cx)/fx, z (v − cy)/fy, z), then `p_base = R p_optical + t` with the camera's pose,

@@ -93,7 +93,7 @@ class SimKinectInputs:
         q = arm_posture_rad(state.names, state.position_rad)
         if q is None:
             self.skipped += 1
-            self._warn.warning("joints", "joint state without Baxter's 7 right-arm joints: frame skipped",
+            self._warn.warning("joints", "joint state without the arm's joints: frame skipped",
                                skipped=self.skipped)
             return True
         truth = self.truth.latest() if self.truth is not None else None

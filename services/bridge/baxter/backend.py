@@ -42,12 +42,13 @@ from typing import Any
 import numpy as np
 import zenoh
 
+from handover_model import robots
 from handover_model.robots import BAXTER, arm_model
 from handover_model.robots.baxter import RIGHT_ARM_JOINTS
 from services.bridge.backend import JointReading, PublishFn
 from services.bridge.baxter import core
 from services.bridge.baxter.config import BaxterConfig, parse_baxter_config
-from services.bridge.baxter.errors import BaxterLostError, BaxterNotReadyError
+from services.bridge.baxter.errors import BaxterConfigError, BaxterLostError, BaxterNotReadyError
 from services.bridge.baxter.keys import topic_key
 from services.bridge.baxter.messages import (
     AssemblyState,
@@ -129,6 +130,10 @@ class BaxterBackend:
     def __init__(self, profile: Profile, config: BaxterConfig | dict[str, Any] | None = None, *,
                  dry_run: bool = False, dry_run_sink: DrySink | None = None, user: str = "bridge",
                  session: zenoh.Session | None = None) -> None:
+        arm = robots.active()
+        if arm.name != BAXTER.name:
+            raise BaxterConfigError(f"the Baxter backend drives a Baxter, but the profile's arm is {arm.name!r}: "
+                                    "set [robot] model = \"baxter\" (or drop --robot)")
         self.config = cfg = parse_baxter_config(config if config is not None else {})
         self.dry_run = dry_run
         self._sink = dry_run_sink or _log_sink

@@ -9,7 +9,7 @@ changing one distribution does not move the draws of the others.
 What the simulation cannot vary today is listed in `NOT_VARIED` with the reason (the report
 and docs/evaluation.md print it): an evaluation must not claim to cover what it never drew.
 
-Units: SI with the unit in the name (m, kg, s, N, deg); positions in Baxter's `base` frame.
+Units: SI with the unit in the name (m, kg, s, N, deg); positions in the scene's `base` frame.
 """
 
 from __future__ import annotations

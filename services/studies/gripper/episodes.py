@@ -15,7 +15,7 @@ Distributions (gripper frame, x toward the receiver, y down; φ > 0 pulls downwa
   20 % (weights settable; "pull-first" and "drag" are taking receivers who pull first and
   take up the weight 0.3–0.8 s after their pull starts, over 0.3–0.7 s, or never: weight 0
   by default, in the "wide" population);
-- gripper class (`GRIPPER_CLASSES`): "slow" (50 N/s, 25 Hz, the thesis's Baxter) by
+- gripper class (`GRIPPER_CLASSES`): "slow" (50 N/s, 25 Hz, the thesis's robot) by
   default; "fast-loop" (50 N/s, 250 Hz), "fast-force" (500 N/s, 25 Hz), "fast" (500 N/s,
   250 Hz) and "medium" (150 N/s, 100 Hz) settable. The controllers step at the class's
   control period (100 Hz, or the loop's rate above 100 Hz, with the F/T read as often);
@@ -81,7 +81,7 @@ class GripperClass:
         return f"{self.name} ({self.force_rate_n_per_s:g} N/s, {self.loop_rate_hz:g} Hz)"
 
 
-#: The gripper classes, in code order. "slow" is the thesis's Baxter gripper (the plant's
+#: The gripper classes, in code order. "slow" is the thesis's robot's gripper (the plant's
 #: default actuator): its setup is the default config, bit for bit.
 GRIPPER_CLASSES = {c.name: c for c in (
     GripperClass("slow", 50.0, 25.0), GripperClass("fast-loop", 50.0, 250.0), GripperClass("fast-force", 500.0, 25.0),

@@ -1,10 +1,10 @@
 """Seeded handover episodes from the simulated Kinect, as bus messages.
 
-An episode: Baxter's right arm moves (minimum-jerk in joint space) from its home posture to
+An episode: the robot's arm moves (minimum-jerk in joint space) from its home posture to
 a transfer point above the table, holding the object between its fingers; the receiver
 (random height and posture) reaches for the object with a minimum-jerk hand motion and ends
 with its hand on the object, 7 cm from the robot's tool frame. Used by the evaluation and
-by `handover-study record`. Frames: Baxter's `base` frame, metres, seconds.
+by `handover-study record`. Frames: the scene's `base` frame, metres, seconds.
 """
 
 from __future__ import annotations
@@ -56,7 +56,7 @@ def solve_arm_ik(arm: ArmGeometry, target_m: np.ndarray, q0_rad: np.ndarray) -> 
     sol = least_squares(residual, q0, bounds=(lim.lower_rad, lim.upper_rad), xtol=1e-10, ftol=1e-10)
     err = float(np.linalg.norm(arm.tool_position(sol.x) - target_m))
     if err > 0.005:
-        raise TrackerError(f"transfer point {np.round(target_m, 3)} out of Baxter's reach (miss {err * 1000:.0f} mm)")
+        raise TrackerError(f"transfer point {np.round(target_m, 3)} out of the arm's reach (miss {err * 1000:.0f} mm)")
     return sol.x
 
 

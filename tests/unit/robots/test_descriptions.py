@@ -121,3 +121,16 @@ def test_a_minimum_grip_force_holds_soft_commands_up_and_zero_opens():
 
     act = GripperActuator(GripperParams(min_force_n=20.0), 0.001, np, 3, 0.0)
     assert act.target_for(np.array([5.0, 0.0, 50.0])) * 500.0 == pytest.approx([20.0, -0.0, 50.0])
+
+
+def test_the_baxter_hardware_backend_refuses_another_arm():
+    from services.bridge.baxter.backend import BaxterBackend
+    from services.bridge.baxter.errors import BaxterConfigError
+
+    previous = robots.active()
+    robots.use(describe("panda"))
+    try:
+        with pytest.raises(BaxterConfigError, match="the profile's arm is 'panda'"):
+            BaxterBackend(None)  # type: ignore[arg-type]  # refused before the profile is read
+    finally:
+        robots.use(previous)
