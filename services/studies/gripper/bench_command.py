@@ -26,6 +26,7 @@ from services.studies.engine_cli import add_engine_arguments, engine_options
 from services.studies.gripper import oracle_command
 from services.studies.gripper.bench_report import (
     attribution_table,
+    gripper_table,
     markdown_table,
     subpopulation_table,
     write_csv,
@@ -38,6 +39,7 @@ from services.studies.gripper.benchmark import (
     REFERENCES,
     TUNING_SEED,
     drop_attribution,
+    per_gripper_stats,
     paired_drop_test,
     paired_overshoot_rows,
     run_benchmark,
@@ -137,8 +139,11 @@ def run(args: argparse.Namespace) -> int:
     rows = summarise(result)
     sub_rows = subpopulation_stats(result)
     grippers = "" if args.grippers is None else f" with grippers {' '.join(args.grippers)}"
-    table = (markdown_table(rows) + "\n\nPer sub-population (receiver kind × gripper class; handovers, objects held "
-             "to the end, release success, overshoot and release time over the taking receivers):\n\n"
+    per_gripper = per_gripper_stats(result)
+    by_gripper = ("\n\nPer gripper (every receiver kind; in bold the gripper's best controller: fewest drops, then "
+                  "more handovers):\n\n" + gripper_table(per_gripper)) if len(per_gripper) > len(rows) else ""
+    table = (markdown_table(rows) + by_gripper + "\n\nPer sub-population (receiver kind × gripper class; handovers, "
+             "objects held to the end, release success, overshoot and release time over the taking receivers):\n\n"
              + subpopulation_table(sub_rows))
     print(f"\n{args.episodes} episodes per controller, population {args.population}{grippers}, seed {args.seed}, "
           f"{result.wall_time_s:.1f} s\n")

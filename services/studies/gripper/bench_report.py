@@ -63,6 +63,22 @@ def subpopulation_table(rows: list[SubpopulationStats]) -> str:
     return "\n".join(lines)
 
 
+def gripper_table(rows: list[SubpopulationStats]) -> str:
+    """Per gripper, per controller: drop rate, release success and overshoot over the taking
+    receivers; the gripper's best controller (fewest drops; then more handovers) in bold."""
+    lines = ["| gripper | controller | episodes | drop rate % [95% CI] | release success % (taking) [95% CI] "
+             "| overshoot median / p95 N |", "|" + "---|" * 6]
+    for gripper in dict.fromkeys(r.gripper for r in rows):
+        group = [r.stats for r in rows if r.gripper == gripper]
+        best = min(group, key=lambda s: (s.drop_rate, -s.release_success_rate)).controller
+        for s in group:
+            name = f"**{s.controller}**" if s.controller == best else s.controller
+            lines.append(f"| {gripper} | {name} | {s.episodes} | {_pct_ci(s.drop_rate, s.drop_ci)} "
+                         f"| {_pct_ci(s.release_success_rate, s.release_success_ci)} "
+                         f"| {_f(s.overshoot_median_n)} / {_f(s.overshoot_p95_n)} |")
+    return "\n".join(lines)
+
+
 def write_subpopulation_csv(rows: list[SubpopulationStats], path: Path) -> Path:
     """The per-sub-population figures as CSV (receiver, gripper, then `ControllerStats.row`)."""
     path.parent.mkdir(parents=True, exist_ok=True)

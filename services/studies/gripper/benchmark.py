@@ -57,7 +57,13 @@ from services.studies.gripper.attribution import (
     run_attributed,
 )
 from services.studies.engine import run_tasks
-from services.studies.gripper.episodes import BEHAVIOUR_NAMES, GRIPPER_CODES, EpisodeDistribution, sample_chunk
+from services.studies.gripper.episodes import (
+    BEHAVIOUR_NAMES,
+    GRIPPER_CLASSES,
+    GRIPPER_CODES,
+    EpisodeDistribution,
+    sample_chunk,
+)
 from services.studies.gripper.populations import (
     DEFAULT_POPULATION,
     POPULATIONS,
@@ -282,6 +288,21 @@ def subpopulation_stats(result: BenchResult) -> list[SubpopulationStats]:
             stats_n = controller_stats(n, result.outcomes[n], result.behaviour, result.grasp_start_s, mask)
             rows.append(SubpopulationStats(sp.receiver_label, sp.gripper_label, stats_n))
     return rows + [SubpopulationStats("all", "all", s) for s in summarise(result)]
+
+
+def per_gripper_stats(result: BenchResult) -> list[SubpopulationStats]:
+    """One row per gripper class of the run per controller, over every receiver kind of that
+    class (receiver label "all"), gripper by gripper in the distribution's order."""
+    if result.gripper is None or result.dist is None:
+        raise GripperError("per-gripper figures need a run of run_benchmark (episode grippers)")
+    names = [n for n in result.outcomes if n not in REFERENCES]
+    rows = []
+    for g, weight in result.dist.gripper_weights.items():
+        mask = np.asarray(result.gripper) == GRIPPER_CODES[g]
+        if weight > 0 and mask.any():
+            rows += [SubpopulationStats("all", GRIPPER_CLASSES[g].label, controller_stats(
+                n, result.outcomes[n], result.behaviour, result.grasp_start_s, mask)) for n in names]
+    return rows
 
 
 def drop_attribution(result: BenchResult) -> list[dict]:

@@ -42,13 +42,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from handover_model import robots
+from handover_model.robots import RobotDescription
 from robot_sim.contact.config import GRAVITY_M_S2, ContactSimError, ObjectParams, SensorParams, SimConfig
 from robot_sim.contact.receiver import Behaviour, ReceiverParams, stack_receivers
 from robot_sim.contact.sampling import sample_one
 from services.gripper.errors import GripperError
 
-__all__ = ["BEHAVIOUR_NAMES", "ChunkSpec", "EpisodeDistribution", "EpisodeObjectParams", "GRIPPER_CLASSES",
-           "GRIPPER_CODES", "GripperClass", "RECEIVER_KINDS", "sample_chunk"]
+__all__ = ["ARM_GRIPPERS", "BEHAVIOUR_NAMES", "ChunkSpec", "EpisodeDistribution", "EpisodeObjectParams",
+           "GRIPPER_CLASSES", "GRIPPER_CODES", "GripperClass", "RECEIVER_KINDS", "sample_chunk"]
 
 BEHAVIOUR_NAMES = {int(Behaviour.TAKING): "taking", int(Behaviour.DROPPING): "dropping",
                    int(Behaviour.BUMPING): "bumping", int(Behaviour.HESITATING): "hesitating"}
@@ -62,30 +64,47 @@ class GripperClass:
     """A gripper actuator of the benchmark: its force rate (N/s, the finger speed limit
     through the spring) and position-loop rate (Hz). The loop period must be a whole number
     of plant steps; the controllers step at `SimConfig.control_period_s` of the setup
-    (`setup`): 100 Hz with a loop up to 100 Hz, the loop's rate above."""
+    (`setup`): 100 Hz with a loop up to 100 Hz, the loop's rate above. An arm's gripper
+    (`arm_gripper_class`) also has its force range (N): the plant holds it to it."""
 
     name: str
     force_rate_n_per_s: float
     loop_rate_hz: float
+    max_force_n: float = 140.0
+    min_force_n: float = 0.0
 
     def setup(self, base: SimConfig) -> SimConfig:
-        """`base` with this gripper (`SimConfig.with_gripper_rates`)."""
+        """`base` with this gripper (`SimConfig.with_gripper_rates`, `SimConfig.with_gripper`)."""
         try:
-            return base.with_gripper_rates(self.force_rate_n_per_s, self.loop_rate_hz)
+            if self.max_force_n == 140.0 and self.min_force_n == 0.0:
+                return base.with_gripper_rates(self.force_rate_n_per_s, self.loop_rate_hz)
+            return base.with_gripper(self.force_rate_n_per_s, self.loop_rate_hz, self.max_force_n, self.min_force_n)
         except ContactSimError as exc:
             raise GripperError(f"gripper class {self.name!r}: {exc}") from None
 
     @property
     def label(self) -> str:
-        """Name with its numbers, e.g. "fast (500 N/s, 250 Hz)"."""
-        return f"{self.name} ({self.force_rate_n_per_s:g} N/s, {self.loop_rate_hz:g} Hz)"
+        """Name with its numbers, e.g. "fast (500 N/s, 250 Hz)", "ur5 (75 N/s, 50 Hz, 20–140 N)"."""
+        limits = "" if self.max_force_n == 140.0 and self.min_force_n == 0.0 else \
+            f", {self.min_force_n:g}–{self.max_force_n:g} N"
+        return f"{self.name} ({self.force_rate_n_per_s:g} N/s, {self.loop_rate_hz:g} Hz{limits})"
+
+
+def arm_gripper_class(desc: RobotDescription) -> GripperClass:
+    """The gripper of a described arm as a benchmark class, named after the arm (its force
+    capped at the plant's 140 N hand limit)."""
+    g = desc.gripper
+    return GripperClass(desc.name, g.force_rate_n_s, g.loop_rate_hz, min(g.force_max_n, 140.0), g.force_min_n)
 
 
 #: The gripper classes, in code order. "slow" is the thesis's robot's gripper (the plant's
 #: default actuator): its setup is the default config, bit for bit.
 GRIPPER_CLASSES = {c.name: c for c in (
     GripperClass("slow", 50.0, 25.0), GripperClass("fast-loop", 50.0, 250.0), GripperClass("fast-force", 500.0, 25.0),
-    GripperClass("fast", 500.0, 250.0), GripperClass("medium", 150.0, 100.0))}
+    GripperClass("fast", 500.0, 250.0), GripperClass("medium", 150.0, 100.0),
+    *(arm_gripper_class(d) for d in robots.BUILTIN.values()))}
+#: The grippers of the described arms (`handover_model.robots`), by arm name.
+ARM_GRIPPERS = tuple(robots.BUILTIN)
 #: Gripper class name → its code (index in `GRIPPER_CLASSES`).
 GRIPPER_CODES = {name: i for i, name in enumerate(GRIPPER_CLASSES)}
 

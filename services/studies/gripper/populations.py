@@ -17,6 +17,10 @@ Named distributions (`POPULATIONS`):
   each of the 24 sub-populations the same share, drawn *stratified*: a run of n episodes has
   exactly n/24 of each (largest remainder when n is not a multiple of 24), so the overall
   figures are the plain mean over the sub-populations.
+- "arms": the six receiver kinds of "wide" × the grippers of the described arms
+  (`handover_model.robots`: Baxter's, the Franka Hand, a Robotiq 2F-85-like gripper on the
+  UR5, the SO-ARM101's jaw), each with its force rate, loop rate and force range
+  (`episodes.arm_gripper_class`), stratified as "wide".
 
 Seeds: chunk i of a run gets child i of `SeedSequence(seed)` (as the first benchmark did);
 a stratified run deals the receiver kinds of each gripper class with the next child.
@@ -29,7 +33,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from services.gripper.errors import GripperError
-from services.studies.gripper.episodes import GRIPPER_CLASSES, GRIPPER_CODES, RECEIVER_KINDS, EpisodeDistribution
+from services.studies.gripper.episodes import (
+    ARM_GRIPPERS,
+    GRIPPER_CLASSES,
+    GRIPPER_CODES,
+    RECEIVER_KINDS,
+    EpisodeDistribution,
+)
 
 __all__ = ["ChunkPlan", "DEFAULT_POPULATION", "POPULATIONS", "RECEIVER_LABELS", "SubPopulation", "allocate",
            "plan_chunks", "population", "subpopulations"]
@@ -44,6 +54,9 @@ POPULATIONS = {
     "wide": EpisodeDistribution(
         behaviour_weights={k: 1.0 for k in ("taking", "pull-first", "drag", "dropping", "hesitating", "bumping")},
         gripper_weights={g: 1.0 for g in ("slow", "fast-loop", "fast-force", "fast")}, stratified=True),
+    "arms": EpisodeDistribution(
+        behaviour_weights={k: 1.0 for k in ("taking", "pull-first", "drag", "dropping", "hesitating", "bumping")},
+        gripper_weights={g: 1.0 for g in ARM_GRIPPERS}, stratified=True),
 }
 DEFAULT_POPULATION = "wide"
 
