@@ -1,12 +1,14 @@
-"""Inverse kinematics of the robot's arm with PlaCo.
+"""Inverse kinematics of the profile's arm (`handover_model.robots`) with PlaCo.
 
-Frames: every pose is the `right_gripper` tool frame in the scene's `base` frame (x forward,
-y left, z up), metres; rotations are 3×3 matrices whose columns are the tool axes in `base`.
+Frames: every pose is the arm's tool frame (`RobotDescription.tool_frame`) in the scene's
+`base` frame (x forward, y left, z up), metres; rotations are 3×3 matrices whose columns are
+the tool axes in `base`.
 
-The `right_gripper` frame of the example-robot-data URDF sits between the fingertips of the
-electric gripper (0.1327 m beyond `right_gripper_base`): its z axis is the approach axis
-(wrist → fingertips), its y axis is the axis the two fingers slide along
-(`r_gripper_l_finger_joint` axis 0 1 0), so the finger pads' faces are normal to y; x = y × z.
+Every arm's tool frame follows one convention (docs/robots.md): it sits between the
+fingertips, its z axis is the approach axis (wrist → fingertips), its y axis is the axis the
+jaws close along, so the pads' faces are normal to y; x = y × z. The default arm's
+`right_gripper` is such a frame (0.1327 m beyond `right_gripper_base`, the fingers sliding along
+`r_gripper_l_finger_joint`'s axis 0 1 0); other arms get one added where their URDF has none.
 
 "Object upright, fingers' faces vertical" (thesis Fig. 15: the grip force is normal to the
 vertical plane that holds the pull and the weight) is `UPRIGHT_ROTATION`:
@@ -18,8 +20,8 @@ The other yaw (y_tool = −y_base) is the same grasp but puts the default arm's 
 at its ±3.06 rad limit for typical transfer points, so it is not used.
 
 The IK is a PlaCo `KinematicsSolver` on the arm's full model with the floating base and
-every joint except the right arm's seven masked (locked at zero): position task and
-orientation task on `right_gripper` (weight 1 each), a joints (posture) task toward a comfortable
+every joint but the arm's chain masked (locked at zero): position task and orientation task on
+the tool frame (weight 1 each), a joints (posture) task toward a comfortable
 posture with a small weight, joint position limits and joint velocity limits.
 
 The model is loaded from the URDF text without its `<visual>` and `<collision>` elements
@@ -80,7 +82,7 @@ class IkResult:
     """Outcome of an IK solve or step.
 
     Attributes:
-        q_rad: right-arm joint positions (7,), rad, `RIGHT_ARM_JOINTS` order.
+        q_rad: the arm's joint positions (n,), rad, in its description's order.
         position_error_m: distance between the tool and the target, m.
         orientation_error_rad: angle between the tool and target orientations, rad.
         iterations: QP iterations used.
@@ -93,7 +95,7 @@ class IkResult:
 
 
 class ArmIk:
-    """PlaCo IK for the right arm: offline solves for goal poses and one step per tick.
+    """PlaCo IK for the arm: offline solves for goal poses and one step per tick.
 
     Not thread-safe: one instance per control loop.
     """

@@ -48,7 +48,7 @@ def arm_positions_from(names: Sequence[str], positions: Sequence[float]) -> np.n
 
 
 def arm_measurement_from(msg: JointState, received_at_s: float) -> ArmMeasurement:
-    """The right arm's joints from a `JointState` received at `received_at_s` (monotonic s);
+    """The arm's joints from a `JointState` received at `received_at_s` (monotonic s);
     velocities only when the message has one per name.
 
     Raises:

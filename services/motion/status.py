@@ -78,10 +78,10 @@ class TickOutput:
     """Result of one control tick.
 
     Attributes:
-        command_q_rad: joint positions to send (7,), rad, or None to send nothing: the planned
+        command_q_rad: joint positions to send (n,), rad, or None to send nothing: the planned
             joints plus the servo-lag lead `servo_lag_s × planned velocity` (clipped to limits).
         planned_q_rad: the planned joint positions (where the arm should be now), rad.
-        command_dq_rad_s: feed-forward joint velocities (7,), rad/s (None with no command).
+        command_dq_rad_s: feed-forward joint velocities (n,), rad/s (None with no command).
         goal_id: goal the command belongs to.
         status: current status.
         status_changed: the state, goal or reason changed during this tick.

@@ -24,7 +24,7 @@ class TrackingStep:
     """Outcome of one IK step along the reach.
 
     Attributes:
-        q_rad: the joints to command (7,), rad; None when the IK step failed.
+        q_rad: the joints to command (n,), rad; None when the IK step failed.
         failure: why tracking failed ('' while it goes well): the IK raised, fell behind the
             path, or did not converge on the goal pose after the path's end.
         progress: path time over path duration, in [0, 1) while on the path.
@@ -46,7 +46,7 @@ class CartesianTracker:
         config: service configuration (tracking and goal tolerances).
         ik: the PlaCo IK of the arm.
         reach: the planned reach.
-        q0_rad: joints (7,), rad, at the reach's start.
+        q0_rad: joints (n,), rad, at the reach's start.
     """
 
     def __init__(self, config: MotionConfig, ik: ArmIk, reach: CartesianReach, q0_rad: np.ndarray) -> None:

@@ -27,6 +27,7 @@ from services.studies.gripper import oracle_command
 from services.studies.gripper.bench_report import (
     attribution_table,
     gripper_table,
+    paired_lines,
     markdown_table,
     subpopulation_table,
     write_csv,
@@ -39,6 +40,7 @@ from services.studies.gripper.benchmark import (
     REFERENCES,
     TUNING_SEED,
     drop_attribution,
+    per_gripper_paired_tests,
     per_gripper_stats,
     paired_drop_test,
     paired_overshoot_rows,
@@ -140,8 +142,12 @@ def run(args: argparse.Namespace) -> int:
     sub_rows = subpopulation_stats(result)
     grippers = "" if args.grippers is None else f" with grippers {' '.join(args.grippers)}"
     per_gripper = per_gripper_stats(result)
-    by_gripper = ("\n\nPer gripper (every receiver kind; in bold the gripper's best controller: fewest drops, then "
-                  "more handovers):\n\n" + gripper_table(per_gripper)) if len(per_gripper) > len(rows) else ""
+    by_gripper = ""
+    if len(per_gripper) > len(rows):  # more than one gripper class
+        by_gripper = ("\n\nPer gripper (every receiver kind; in bold the gripper's best controller: fewest drops, "
+                      "then more handovers):\n\n" + gripper_table(per_gripper)
+                      + "\n\nPaired drops on each gripper's episodes:\n\n"
+                      + paired_lines(per_gripper_paired_tests(result)))
     table = (markdown_table(rows) + by_gripper + "\n\nPer sub-population (receiver kind × gripper class; handovers, "
              "objects held to the end, release success, overshoot and release time over the taking receivers):\n\n"
              + subpopulation_table(sub_rows))

@@ -79,6 +79,16 @@ def gripper_table(rows: list[SubpopulationStats]) -> str:
     return "\n".join(lines)
 
 
+def paired_lines(tests: list[dict]) -> str:
+    """One Markdown bullet per paired drop test (`benchmark.per_gripper_paired_tests`)."""
+    out = []
+    for t in tests:
+        p = f"= {t['p_value']:.2g}" if t["p_value"] > 0 else "< 1e-300"
+        out.append(f"- {t['gripper']}: {t['a']} vs {t['b']}: {t['a']}-only drops {t['only_a_drops']}, "
+                   f"{t['b']}-only {t['only_b_drops']}, McNemar exact p {p}")
+    return "\n".join(out)
+
+
 def write_subpopulation_csv(rows: list[SubpopulationStats], path: Path) -> Path:
     """The per-sub-population figures as CSV (receiver, gripper, then `ControllerStats.row`)."""
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -305,6 +305,20 @@ def per_gripper_stats(result: BenchResult) -> list[SubpopulationStats]:
     return rows
 
 
+def per_gripper_paired_tests(result: BenchResult, against: str = "SG") -> list[dict]:
+    """`paired_drop_test` of `against` with every other controller on each gripper class's
+    episodes (key ``gripper``: the class's label); [] when `against` did not run."""
+    if against not in result.outcomes or result.gripper is None or result.dist is None:
+        return []
+    tests = []
+    for g, weight in result.dist.gripper_weights.items():
+        mask = np.asarray(result.gripper) == GRIPPER_CODES[g]
+        if weight > 0 and mask.any():
+            tests += [{"gripper": GRIPPER_CLASSES[g].label, **paired_drop_test(result, against, other, mask)}
+                      for other in result.outcomes if other != against and other not in REFERENCES]
+    return tests
+
+
 def drop_attribution(result: BenchResult) -> list[dict]:
     """Per controller: drop rate split into unavoidable (the max-hold reference drops too),
     actuator-limited (the reactive reference drops too: only a harder grip *before* any
@@ -349,12 +363,15 @@ def paired_overshoot_rows(result: BenchResult, against: str = "SG") -> list[dict
     return rows
 
 
-def paired_drop_test(result: BenchResult, a: str, b: str) -> dict:
-    """McNemar's exact test on the same episodes: does `a` drop differently from `b`?
+def paired_drop_test(result: BenchResult, a: str, b: str, mask: np.ndarray | None = None) -> dict:
+    """McNemar's exact test on the same episodes (those in `mask`, default all): does `a`
+    drop differently from `b`?
 
     Returns the discordant counts (a drops where b holds, and the reverse) and the
     two-sided p-value (binomial test on the discordant pairs)."""
     da, db = result.outcomes[a].dropped, result.outcomes[b].dropped
+    if mask is not None:
+        da, db = da[mask], db[mask]
     only_a, only_b = int((da & ~db).sum()), int((~da & db).sum())
     p = stats.binomtest(only_a, only_a + only_b).pvalue if only_a + only_b else 1.0
     return {"a": a, "b": b, "only_a_drops": only_a, "only_b_drops": only_b, "p_value": float(p)}

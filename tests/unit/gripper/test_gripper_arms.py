@@ -39,6 +39,11 @@ def test_the_per_gripper_rows_add_up_and_name_each_grippers_best_controller():
         mine = [row.stats for row in rows if row.stats.controller == name]
         assert sum(s.episodes for s in mine) == 96 and len(mine) == 4
         assert sum(s.drops for s in mine) == int(r.outcomes[name].dropped.sum())
+    tests = B.per_gripper_paired_tests(r)
+    assert [t["gripper"].split(" ")[0] for t in tests] == list(robots.BUILTIN) and all(t["b"] == "FS1" for t in tests)
+    so = np.asarray(r.gripper) == list(GRIPPER_CLASSES).index("so_arm101")
+    sg, fs1 = r.outcomes["SG"].dropped[so], r.outcomes["FS1"].dropped[so]
+    assert (tests[-1]["only_a_drops"], tests[-1]["only_b_drops"]) == (int((sg & ~fs1).sum()), int((~sg & fs1).sum()))
     table = gripper_table(rows)
     assert table.count("**SG**") + table.count("**FS1**") == 4 and "so_arm101 (150 N/s, 50 Hz, 0–10 N)" in table
     for gripper in robots.BUILTIN:  # the bold one has the fewest drops of its gripper
