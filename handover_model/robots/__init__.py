@@ -51,7 +51,7 @@ def describe(name: str, overrides: dict[str, Any] | None = None, where: str = "[
         RobotDescriptionError: an unknown model or a bad override.
     """
     if name not in BUILTIN:
-        raise RobotDescriptionError(f"unknown robot model {name!r}; known: {sorted(BUILTIN)}")
+        raise RobotDescriptionError(f"{where}: unknown robot model {name!r}; known: {sorted(BUILTIN)}")
     return with_overrides(BUILTIN[name], overrides or {}, where) if overrides else BUILTIN[name]
 
 

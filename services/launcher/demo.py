@@ -28,6 +28,8 @@ DEMO_OFFSETS_RAD: tuple[tuple[float, ...], ...] = (
     (0.0,) * 7,
 )
 COMMAND_RATE_HZ = 100.0
+#: The demo's waypoints stay this far inside the joint limits, rad.
+DEMO_LIMIT_MARGIN_RAD = 0.05
 
 
 @dataclass
@@ -90,8 +92,10 @@ def run_demo(node: ServiceNode, abort: callable, settle_s: float = 0.6,
     arm = robots.active()
     home = np.array(arm.home_rad)
     current = np.array(states.latest().msg.position_rad)
-    waypoints = [home + np.array(o[:arm.dof]) for o in DEMO_OFFSETS_RAD]  # the first joints of a shorter arm
     model = arm_model()
+    lo, hi = model.limits.lower_rad + DEMO_LIMIT_MARGIN_RAD, model.limits.upper_rad - DEMO_LIMIT_MARGIN_RAD
+    # The offsets are the first joints' for a shorter arm, kept within the joint limits.
+    waypoints = [np.clip(home + np.array(o[:arm.dof]), lo, hi) for o in DEMO_OFFSETS_RAD]
     result = DemoResult(False)
     period = 1.0 / COMMAND_RATE_HZ
     t_start = time.monotonic()

@@ -18,7 +18,7 @@ Named distributions (`POPULATIONS`):
   exactly n/24 of each (largest remainder when n is not a multiple of 24), so the overall
   figures are the plain mean over the sub-populations.
 - "arms": the six receiver kinds of "wide" × the grippers of the described arms
-  (`handover_model.robots`: Baxter's, the Franka Hand, a Robotiq 2F-85-like gripper on the
+  (`handover_model.robots`: the default arm's, the Franka Hand, a Robotiq 2F-85-like gripper on the
   UR5, the SO-ARM101's jaw), each with its force rate, loop rate and force range
   (`episodes.arm_gripper_class`), stratified as "wide".
 
