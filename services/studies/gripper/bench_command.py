@@ -115,6 +115,16 @@ def _paired_drop_tests(result) -> list[dict]:
     return tests
 
 
+def _by_gripper(result, n_controllers: int) -> str:
+    """The per-gripper table and paired tests when the run had more than one gripper class."""
+    per_gripper = per_gripper_stats(result)
+    if len(per_gripper) <= n_controllers:
+        return ""
+    return ("\n\nPer gripper (every receiver kind; in bold the gripper's best controller: fewest drops, "
+            "then more handovers):\n\n" + gripper_table(per_gripper)
+            + "\n\nPaired drops on each gripper's episodes:\n\n" + paired_lines(per_gripper_paired_tests(result)))
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark and write its tables and plots; returns the exit code (2 on bad input)."""
     logging.basicConfig(level=args.log_level.upper(), format="%(levelname)s %(name)s: %(message)s")
@@ -141,15 +151,9 @@ def run(args: argparse.Namespace) -> int:
     rows = summarise(result)
     sub_rows = subpopulation_stats(result)
     grippers = "" if args.grippers is None else f" with grippers {' '.join(args.grippers)}"
-    per_gripper = per_gripper_stats(result)
-    by_gripper = ""
-    if len(per_gripper) > len(rows):  # more than one gripper class
-        by_gripper = ("\n\nPer gripper (every receiver kind; in bold the gripper's best controller: fewest drops, "
-                      "then more handovers):\n\n" + gripper_table(per_gripper)
-                      + "\n\nPaired drops on each gripper's episodes:\n\n"
-                      + paired_lines(per_gripper_paired_tests(result)))
-    table = (markdown_table(rows) + by_gripper + "\n\nPer sub-population (receiver kind × gripper class; handovers, "
-             "objects held to the end, release success, overshoot and release time over the taking receivers):\n\n"
+    table = (markdown_table(rows) + _by_gripper(result, len(rows))
+             + "\n\nPer sub-population (receiver kind × gripper class; handovers, objects held to the end, "
+             "release success, overshoot and release time over the taking receivers):\n\n"
              + subpopulation_table(sub_rows))
     print(f"\n{args.episodes} episodes per controller, population {args.population}{grippers}, seed {args.seed}, "
           f"{result.wall_time_s:.1f} s\n")
