@@ -148,8 +148,7 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         print("handover-study bench: interrupted", file=sys.stderr)
         return 130
-    rows = summarise(result)
-    sub_rows = subpopulation_stats(result)
+    rows, sub_rows = summarise(result), subpopulation_stats(result)
     grippers = "" if args.grippers is None else f" with grippers {' '.join(args.grippers)}"
     table = (markdown_table(rows) + _by_gripper(result, len(rows))
              + "\n\nPer sub-population (receiver kind × gripper class; handovers, objects held to the end, "
