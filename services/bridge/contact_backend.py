@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from handover_model import robots
 from handover_model.robots import arm_model
 from robot_sim.contact.config import ContactSimError, ObjectParams, SimConfig
 from robot_sim.contact.plant import ContactPlant
@@ -54,7 +55,8 @@ class ContactSimBackend(SimBackend):
         super().__init__(time_constant_s, initial_position_rad, robot_command_timeout_s)
         try:
             obj = ObjectParams(mass_kg=object_mass_kg, mu_static=mu_static, mu_kinetic=mu_kinetic)
-            config = SimConfig(obj=obj)
+            g = robots.active().gripper  # the arm's gripper: its rates and force range
+            config = SimConfig(obj=obj).with_gripper(g.force_rate_n_s, g.loop_rate_hz, g.force_max_n, g.force_min_n)
             kwargs: dict[str, Any] = {"weight_n": object_mass_kg * 9.81, **(receiver or {})}
             if behaviour != "absent":  # no receiver, no pull direction
                 kwargs["pull_angle_rad"] = math.radians(pull_angle_deg)

@@ -104,7 +104,11 @@ def test_each_arm_reaches_the_pick_the_lift_and_typical_transfer_points(name):
 
 
 def test_the_gripper_limits_reach_the_contact_plant():
+    from robot_sim.contact.config import SimConfig
     from robot_sim.handover_scene import HandoverScene, SceneParams
+
+    g = BUILTIN["baxter"].gripper  # Baxter's gripper is the plant's default actuator, exactly
+    assert SimConfig().with_gripper(g.force_rate_n_s, g.loop_rate_hz, g.force_max_n, g.force_min_n) == SimConfig()
 
     for name in BUILTIN:
         g = describe(name).gripper
