@@ -101,6 +101,41 @@ def test_a_participant_killed_mid_episode_is_noticed_and_the_clock_goes_on(tmp_p
     out = "".join(lines)
     assert victim is not None, out
     assert proc.returncode != 0, out
-    assert "PROTECTIVE_STOP: protective stop: motion: process gone" in out, out
+    # Whichever notices first: the supervisor's watchdog (in simulated time) or the launcher,
+    # which sees its child die.
+    assert ("PROTECTIVE_STOP: protective stop: motion: process gone" in out
+            or "protective stop: motion was killed by SIGKILL" in out), out
     assert "stop: braking" in out, "the bridge brakes the arm"
     assert "simulation clock" not in out or "waited" not in out, "the clock must not wait for a dead participant"
+
+
+def test_a_supervisor_stopped_mid_reach_is_silent_in_simulated_time_and_the_launcher_stops_the_arm(tmp_path):
+    """The launcher's watch of the supervisor counts its silence in the stack's time: the clock
+    goes on without a stopped (SIGSTOP) supervisor, and the watch stops the arm."""
+    cmd = [sys.executable, "-m", "services.launcher", "--clock", "sim", "--port", str(free_tcp_port()),
+           "--recording-dir", str(tmp_path), "--run-id", "s", "--seed", "5", "--verbose"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    lines: list[str] = []
+    victim = None
+    try:
+        assert proc.stdout is not None
+        deadline = time.monotonic() + 90.0
+        for line in proc.stdout:
+            lines.append(line)
+            if victim is None and "episode 1: reach" in line:
+                victim = next(c for c in psutil.Process(proc.pid).children(recursive=True)
+                              if "services.supervisor" in " ".join(c.cmdline()))
+                os.kill(victim.pid, signal.SIGSTOP)
+            if time.monotonic() > deadline:
+                break
+        proc.wait(timeout=30)
+    finally:
+        if victim is not None and victim.is_running():
+            os.kill(victim.pid, signal.SIGCONT)
+        if proc.poll() is None:
+            _kill_tree(proc)
+    out = "".join(lines)
+    assert victim is not None, out
+    assert proc.returncode != 0, out
+    assert "no supervisor/state for" in out and "s of simulated time; the launcher stopped the arm" in out, out
+    assert "stop: braking" in out, "the bridge brakes the arm"
