@@ -97,6 +97,8 @@ class ClockOwner:
         self._slow_log = RateLimitedLog(log, SLOW_REPORT_S)
         self._started_wall_s: float | None = None  # when it began waiting for the participants
         self._first_step_wall_s: float | None = None
+        #: Steps granted to each participant (said in the log at exit).
+        self.grants: dict[str, int] = {}
 
     def attach(self, node: ServiceNode) -> None:
         """Grant steps on `node`'s bus and take the participants' answers and liveliness."""
@@ -186,6 +188,7 @@ class ClockOwner:
         payload = encode_for(topics.CLOCK, ClockGrant(seq=step.number, stamp_ns=self._stamps.now_ns(), source=self.name,
                                                       step=step.number, time_ns=step.time_ns, due=list(step.due)))
         for name in step.due:
+            self.grants[name] = self.grants.get(name, 0) + 1
             pub = self._grant_pubs.get(name)
             if pub is None:
                 pub = self._grant_pubs[name] = self._session.declare_publisher(
@@ -237,6 +240,8 @@ class ClockOwner:
                      "in %.2f s of wall time: %.2f× real time; %d participant(s) excused", b.steps,
                      b.owner_only_steps, b.event_steps, b.now_ns / 1e9, wall_s, b.now_ns / 1e9 / max(wall_s, 1e-9),
                      b.excusals)
+            log.info("simulation clock: steps granted per participant: %s",
+                     ", ".join(f"{name} {count}" for name, count in sorted(self.grants.items())))
         for pub in self._grant_pubs.values():
             try:
                 pub.undeclare()
