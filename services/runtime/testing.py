@@ -62,6 +62,25 @@ def interrupt_then_kill(proc: subprocess.Popen, timeout_s: float = 20.0) -> int:
         return proc.wait(5.0)
 
 
+def kill_tree(proc: subprocess.Popen, wait_s: float = 10.0) -> None:
+    """Kill a process this test started (e.g. `handover-up`) and whatever children it still
+    has, by their PIDs (for a run that did not end by itself), and reap it (up to `wait_s`)."""
+    import psutil
+
+    try:
+        children = psutil.Process(proc.pid).children(recursive=True)
+    except psutil.NoSuchProcess:
+        children = []
+    for child in children:
+        try:
+            child.kill()
+        except psutil.NoSuchProcess:
+            pass
+    if proc.poll() is None:
+        proc.kill()
+    proc.wait(timeout=wait_s)
+
+
 def wait_until(predicate: Callable[[], bool], timeout_s: float, interval_s: float = 0.01) -> bool:
     """Poll `predicate` until it is true or `timeout_s` passes; return its last value."""
     deadline = time.monotonic() + timeout_s

@@ -16,7 +16,7 @@ import psutil
 import pytest
 
 from services.recorder.readback import read_component
-from services.runtime.testing import free_tcp_port
+from services.runtime.testing import free_tcp_port, kill_tree
 
 pytestmark = pytest.mark.integration
 
@@ -36,20 +36,10 @@ def _run(tmp_path: Path, run_id: str, *args: str, timeout_s: float = 120.0) -> t
     try:
         out, _ = proc.communicate(timeout=timeout_s)
     except subprocess.TimeoutExpired:
-        _kill_tree(proc)
+        kill_tree(proc)
         out, _ = proc.communicate()
         pytest.fail(f"handover-up --clock sim did not exit in {timeout_s} s:\n{out}")
     return proc.returncode, out, tmp_path / f"handover-{run_id}.rrd"
-
-
-def _kill_tree(proc: subprocess.Popen) -> None:
-    try:
-        children = psutil.Process(proc.pid).children(recursive=True)
-    except psutil.NoSuchProcess:
-        children = []
-    for child in children:
-        child.kill()
-    proc.kill()
 
 
 def _episode(path: Path) -> dict[str, list]:
@@ -100,7 +90,7 @@ def _signal_mid_reach(tmp_path: Path, run_id: str, service: str, sig: signal.Sig
         if victim is not None and sig == signal.SIGSTOP and victim.is_running():
             os.kill(victim.pid, signal.SIGCONT)
         if proc.poll() is None:
-            _kill_tree(proc)
+            kill_tree(proc)
     out = "".join(lines)
     assert victim is not None, out
     return proc.returncode, out
