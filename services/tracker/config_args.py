@@ -19,9 +19,10 @@ def add_config_flags(p: argparse.ArgumentParser) -> None:
     g.add_argument("--no-lag-correction", action="store_true", help="disable Mincelli's lag correction (a)")
     g.add_argument("--no-proximity-filter", action="store_true", help="disable Mincelli's robot-proximity filter (b)")
     g.add_argument("--proximity-mode", choices=["hold", "predict"], default=None, help="what (b) does while engaged")
-    g.add_argument("--sensor", choices=["bus", "sim", "ros1"], default=None,
-                   help="skeleton and depth from the bus, from a simulated Kinect in this process, or from "
-                        "openni_tracker and a depth camera through the Zenoh ROS 1 bridge (docs/kinect_ros1.md)")
+    g.add_argument("--sensor", choices=["bus", "sim", "ros1", "camera"], default=None,
+                   help="skeleton and depth from the bus, from a simulated Kinect in this process, from "
+                        "openni_tracker and a depth camera through the Zenoh ROS 1 bridge (docs/kinect_ros1.md), "
+                        "or from a camera through a 2-D body-pose model (docs/camera.md)")
     g.add_argument("--publish-depth", action="store_true",
                    help="sensor = \"sim\" or \"ros1\": also publish perception/depth (for a recorder that "
                         "records depth)")
