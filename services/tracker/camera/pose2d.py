@@ -14,6 +14,7 @@ back with all 33 landmarks in pixels and their visibility (0..1).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import warnings
 from dataclasses import dataclass
@@ -103,10 +104,12 @@ class PoseEstimator:
                  min_detection_confidence: float = 0.5) -> None:
         mp_pose = _import_mediapipe()
         self.max_people, self.min_visibility = max_people, min_visibility
-        # static_image_mode: the person detector runs on every image (several people, no
-        # tracking across frames that blanking would confuse); complexity 1 = the shipped model.
-        self._pose = mp_pose.Pose(static_image_mode=True, model_complexity=1, enable_segmentation=False,
-                                  min_detection_confidence=min_detection_confidence)
+        with _native_stderr_quiet():  # TFLite's start-up notes (XNNPACK, feedback manager) on fd 2
+            # static_image_mode: the person detector runs on every image (several people, no
+            # tracking across frames that blanking would confuse); complexity 1 = the shipped model.
+            self._pose = mp_pose.Pose(static_image_mode=True, model_complexity=1, enable_segmentation=False,
+                                      min_detection_confidence=min_detection_confidence)
+            self._pose.process(np.full((64, 64, 3), 128, np.uint8))  # warm-up: the graph starts here
         self.inferences = 0
 
     def people(self, rgb: np.ndarray) -> list[Person2D]:
@@ -139,6 +142,30 @@ class PoseEstimator:
 
     def close(self) -> None:
         self._pose.close()
+
+
+@contextlib.contextmanager
+def _native_stderr_quiet():
+    """Send file descriptor 2 to a temporary file while MediaPipe's C++ starts (only this thread
+    runs then: the tracker opens the camera before it joins the bus); what it said is logged at
+    debug level."""
+    import logging
+    import sys
+    import tempfile
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile() as sink:
+        os.dup2(sink.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            sink.seek(0)
+            said = sink.read().decode(errors="replace").strip()
+            if said:
+                logging.getLogger("tracker").debug("MediaPipe start-up: %s", said.replace("\n", " | "))
 
 
 def _blank(image: np.ndarray, box: tuple[float, float, float, float]) -> np.ndarray:

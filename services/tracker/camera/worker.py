@@ -115,14 +115,14 @@ class CameraWorker(threading.Thread):
         self.stats = WorkerStats()
         self.ended = threading.Event()
         self.last_frame_s: float | None = None
-        self._stop = threading.Event()
+        self._halt = threading.Event()
         self._lock = threading.Lock()
         self._results: deque[CameraResult] = deque()
         self._order = FrameOrder()
         self._warn = RateLimitedLog(log, 5.0)
 
     def stop(self) -> None:
-        self._stop.set()
+        self._halt.set()
 
     def drain(self) -> list[CameraResult]:
         with self._lock:
@@ -134,14 +134,14 @@ class CameraWorker(threading.Thread):
         period = 1.0 / self.rig.config.rate_hz
         next_s = time.monotonic()
         try:
-            while not self._stop.is_set():
+            while not self._halt.is_set():
                 now = time.monotonic()
                 if now < next_s and not getattr(self.rig.frames, "live", False):
-                    self._stop.wait(next_s - now)  # a file or folder: read at the rate
+                    self._halt.wait(next_s - now)  # a file or folder: read at the rate
                     continue
                 frame = self.rig.frames.read()
                 if frame is None:
-                    self._stop.wait(0.005)
+                    self._halt.wait(0.005)
                     continue
                 rx_s = time.monotonic()
                 if rx_s < next_s:  # a live camera faster than the rate: skip this one
