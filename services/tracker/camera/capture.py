@@ -82,7 +82,12 @@ class OpenCvFrames:
         self.read_failures = 0
         path = Path(spec)
         if self.live:
-            self._cap = cv2.VideoCapture(int(spec))
+            quiet = cv2.utils.logging.getLogLevel()
+            cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)  # our error says it in one line
+            try:
+                self._cap = cv2.VideoCapture(int(spec))
+            finally:
+                cv2.utils.logging.setLogLevel(quiet)
             if not self._cap.isOpened():
                 raise CameraError(f"camera {spec} cannot be opened: is a camera connected (ls /dev/video*), "
                                   "and is it free (no other program using it)?")

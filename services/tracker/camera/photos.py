@@ -57,7 +57,10 @@ def photo(name: str) -> np.ndarray:
     if name == "hopper":
         import matplotlib.cbook
 
-        bgr = cv2.imread(str(matplotlib.cbook.get_sample_data("grace_hopper.jpg", asfileobj=False)))
+        path = matplotlib.cbook.get_sample_data("grace_hopper.jpg", asfileobj=False)
+        bgr = cv2.imread(str(path))
+        if bgr is None:
+            raise CameraError(f"matplotlib's sample photo {path} cannot be read")
         return np.ascontiguousarray(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB))
     raise CameraError(f"unknown sample photo {name!r} (one of {', '.join(PEOPLE)})")
 
@@ -117,7 +120,7 @@ def write_frames(folder: Path, frames: list[tuple[np.ndarray, np.ndarray]], vide
     writer = None
     if video:
         w, h = CANVAS
-        writer = cv2.VideoWriter(str(folder / "rgb.avi"), cv2.VideoWriter_fourcc(*"png "), 15.0, (w, h))
+        writer = cv2.VideoWriter(str(folder / "rgb.avi"), cv2.VideoWriter.fourcc(*"png "), 15.0, (w, h))
         if not writer.isOpened():
             raise CameraError(f"OpenCV cannot write {folder / 'rgb.avi'}")
     else:

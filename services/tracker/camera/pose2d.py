@@ -81,7 +81,7 @@ def _import_mediapipe():
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # protobuf's deprecation notes
-            from mediapipe.python.solutions import pose as mp_pose
+            from mediapipe.python.solutions import pose as mp_pose  # type: ignore[import-untyped]
     except ImportError as exc:
         raise CameraError(f"the camera path needs MediaPipe ({exc}): pip install -c requirements.lock -e "
                           "'.[camera]' && pip install --no-deps mediapipe==0.10.14 (docs/camera.md#install)") from None

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import cv2
 import numpy as np
 import pytest
@@ -124,3 +126,16 @@ def test_an_incomplete_camera_set_up_says_what_is_missing():
     ok = CameraConfig(input="x.avi", calibration_file="c.toml", fx_px=1, fy_px=1, cx_px=1, cy_px=1,
                       object_position_m=[0.7, -0.5, -0.2])
     assert ok.problems() == []
+
+
+def test_the_tracker_cli_refuses_an_incomplete_camera_set_up_in_one_line(tmp_path, capsys):
+    from services.tracker.cli import main
+
+    assert main(["--sensor", "camera"]) == 2
+    assert "camera.calibration_file is required" in capsys.readouterr().err
+    profile = tmp_path / "p.toml"
+    text = (Path(__file__).resolve().parents[3] / "deploy" / "camera.toml").read_text()
+    profile.write_text(text.replace('"camera_sample/calibration.toml"', '"missing.toml"'))
+    assert main(["--profile", str(profile)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "calibration file" in err[0] and "does not exist" in err[0]

@@ -73,3 +73,14 @@ def test_one_person_only_when_asked_for_one():
 def test_a_bad_image_is_refused(estimator):
     with pytest.raises(ValueError, match="uint8 RGB"):
         estimator.people(np.zeros((10, 10), np.uint8))
+
+
+def test_the_shipped_sample_input_is_what_camera_sample_writes(tmp_path):
+    import cv2
+
+    repo = __import__("pathlib").Path(__file__).resolve().parents[3] / "deploy" / "camera_sample"
+    assert photos.write_sample(tmp_path) == 1
+    for part in ("rgb/0000.png", "depth/0000.png"):
+        np.testing.assert_array_equal(cv2.imread(str(tmp_path / part), cv2.IMREAD_UNCHANGED),
+                                      cv2.imread(str(repo / part), cv2.IMREAD_UNCHANGED))
+    assert (tmp_path / "calibration.toml").read_text() == (repo / "calibration.toml").read_text()
