@@ -8,6 +8,7 @@
     handover-study experiment  candidate transfer positions of the thesis's experiment
     handover-study record      one simulated tracker episode to a replay file
     handover-study evaluate    the tracker's hand error against the simulator's truth
+    handover-study tracker-defaults  the tracker configuration to ship, chosen and confirmed on other seeds
     handover-study crosscheck  the contact plant against MuJoCo, scenario by scenario
 
 None of them needs the bus or a running stack. Exit codes: 0 done, 1 a failure while running,
@@ -41,6 +42,8 @@ def _commands() -> list[tuple[str, str, Callable[[argparse.ArgumentParser], None
     table = [(name, module.DESCRIPTION, module.add_arguments, module.run) for name, module in modules]
     table.append(("record", tracker.RECORD_DESCRIPTION, tracker.add_record_arguments, tracker.run_record))
     table.append(("evaluate", tracker.EVALUATE_DESCRIPTION, tracker.add_evaluate_arguments, tracker.run_evaluate))
+    table.append(("tracker-defaults", tracker.DEFAULTS_DESCRIPTION, tracker.add_defaults_arguments,
+                  tracker.run_defaults))
     return table
 
 
