@@ -12,8 +12,6 @@ from __future__ import annotations
 
 import queue
 import shutil
-import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -27,7 +25,7 @@ pytest.importorskip("skimage", reason="the camera extra (scikit-image's photos) 
 from bus_schema import topics as T  # noqa: E402
 from bus_schema.codec import decode  # noqa: E402
 from services.runtime.profile import free_tcp_port  # noqa: E402
-from services.runtime.testing import (BusRouter, ServiceProcess, client_session, interrupt_then_kill,  # noqa: E402
+from services.runtime.testing import (BusRouter, ServiceProcess, client_session, run_launcher,
                                       loopback_profile, wait_alive)
 from services.tracker.camera import photos  # noqa: E402
 
@@ -93,24 +91,16 @@ def test_a_video_of_photographs_through_the_tracker_service(tmp_path):
     assert "camera stopped" in log and "out_of_order=0" in log, log
 
 
-def run_launcher(profile_path: Path, tmp: Path, timeout_s: float = 150.0) -> tuple[int, str]:
-    cmd = [sys.executable, "-m", "services.launcher", "--profile", str(profile_path), "--port",
-           str(free_tcp_port()), "--recording-dir", str(tmp / "rec"), "--episodes", "1", "--verbose"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    try:
-        out, _ = proc.communicate(timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        interrupt_then_kill(proc)
-        out, _ = proc.communicate()
-        raise AssertionError("handover-up did not finish:\n" + out[-6000:]) from None
-    return proc.returncode, out
+def run_camera_profile(profile_path: Path, tmp: Path, timeout_s: float = 150.0) -> tuple[int, str]:
+    return run_launcher(["--profile", str(profile_path), "--port", str(free_tcp_port()), "--recording-dir",
+                         str(tmp / "rec"), "--episodes", "1", "--verbose"], timeout_s)
 
 
 def test_the_camera_profile_runs_the_whole_handover(tmp_path):
     profile = camera_profile(tmp_path)
     shutil.copytree(REPO / "deploy" / "camera_sample" / "rgb", tmp_path / "camera_sample" / "rgb")
     shutil.copytree(REPO / "deploy" / "camera_sample" / "depth", tmp_path / "camera_sample" / "depth")
-    code, out = run_launcher(profile, tmp_path)
+    code, out = run_camera_profile(profile, tmp_path)
     tail = out[-6000:]
     assert code == 0, tail
     assert "RELEASED: released to the receiver" in out, tail
@@ -124,7 +114,7 @@ def test_nobody_in_view_means_no_pick(tmp_path):
                                                    "locate_timeout_s = 6.0"))
     cat, _ = photos.compose([("cat", "centre")])
     photos.write_frames(tmp_path / "camera_sample", [(cat, photos.flat_depth({"centre": 1.5}))])
-    code, out = run_launcher(profile, tmp_path)
+    code, out = run_camera_profile(profile, tmp_path)
     assert "locate: the tracker did not find the receiver" in out, out[-6000:]
     assert "pick (approach)" not in out, out[-6000:]
     assert "camera: nobody in view" in out, out[-6000:]

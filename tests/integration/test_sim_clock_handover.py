@@ -16,7 +16,7 @@ import psutil
 import pytest
 
 from services.recorder.readback import read_component
-from services.runtime.testing import free_tcp_port, kill_tree
+from services.runtime.testing import free_tcp_port, kill_tree, run_launcher
 
 pytestmark = pytest.mark.integration
 
@@ -30,16 +30,9 @@ COMPARED = (
 
 
 def _run(tmp_path: Path, run_id: str, *args: str, timeout_s: float = 120.0) -> tuple[int, str, Path]:
-    cmd = [sys.executable, "-m", "services.launcher", "--clock", "sim", "--port", str(free_tcp_port()),
-           "--recording-dir", str(tmp_path), "--run-id", run_id, *args]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    try:
-        out, _ = proc.communicate(timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        kill_tree(proc)
-        out, _ = proc.communicate()
-        pytest.fail(f"handover-up --clock sim did not exit in {timeout_s} s:\n{out}")
-    return proc.returncode, out, tmp_path / f"handover-{run_id}.rrd"
+    code, out = run_launcher(["--clock", "sim", "--port", str(free_tcp_port()), "--recording-dir", str(tmp_path),
+                              "--run-id", run_id, *args], timeout_s)
+    return code, out, tmp_path / f"handover-{run_id}.rrd"
 
 
 def _episode(path: Path) -> dict[str, list]:
