@@ -51,8 +51,9 @@ class CommandGate:
         limits: their limits (rad).
         command_timeout_s: hold after this long without a valid command, s.
         limit_tolerance_rad: accepted excursion past a limit, rad.
-        max_step_rad: a command whose target is farther than this from the measured
-            position is rejected (a jump, not a trajectory), rad; None: no such rule (the
+        max_step_rad: a command whose target is farther than this from the previous target
+            (from the measured position when there is none: holding, or the first command)
+            is rejected (a jump, not a trajectory), rad; None: no such rule (the
             simulated arm); hardware backends whose robot would fault on a jump set it.
     """
 
@@ -149,7 +150,7 @@ class CommandGate:
         target = base.copy()
         for index, value in pairs:
             target[index] = value
-        step = self._too_far(target, current_rad)
+        step = self._too_far(target, base)
         if step is not None:
             self.rejected += 1
             self._target_rad = None
@@ -166,15 +167,15 @@ class CommandGate:
         self.accepted += 1
         return None
 
-    def _too_far(self, target_rad: np.ndarray, current_rad: np.ndarray) -> str | None:
-        """Why `target_rad` is too far from `current_rad` for `max_step_rad`, or None."""
+    def _too_far(self, target_rad: np.ndarray, reference_rad: np.ndarray) -> str | None:
+        """Why `target_rad` is too far from `reference_rad` for `max_step_rad`, or None."""
         if self.max_step_rad is None:
             return None
-        step = np.abs(target_rad - np.asarray(current_rad, float))
+        step = np.abs(target_rad - np.asarray(reference_rad, float))
         worst = int(np.argmax(step))
         if step[worst] <= self.max_step_rad:
             return None
-        return (f"joint command {self.joint_names[worst]} is {step[worst]:.3f} rad from the arm's position "
+        return (f"joint command {self.joint_names[worst]} jumps {step[worst]:.3f} rad "
                 f"(at most {self.max_step_rad:.3f} rad per command: send a trajectory, not a jump)")
 
     def decide(self, now_s: float) -> Decision:

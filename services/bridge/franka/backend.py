@@ -105,11 +105,9 @@ class FrankaBackend:
     # ------------------------------------------------------------------ start-up
     def _connect(self) -> Any:
         franky, cfg = self._franky, self.config
-        realtime = franky.RealtimeConfig.Enforce if cfg.realtime == "enforce" else franky.RealtimeConfig.Ignore
         try:
-            robot = franky.Robot(cfg.host, relative_dynamics_factor=cfg.relative_dynamics_factor,
-                                 default_torque_threshold=cfg.torque_threshold_nm,
-                                 default_force_threshold=cfg.force_threshold_n, realtime_config=realtime)
+            robot = self._open(franky.RealtimeConfig.Enforce if cfg.realtime == "enforce"
+                               else franky.RealtimeConfig.Ignore)
         except franky.RealtimeException as exc:
             raise FrankaNotReadyError(f"{exc}: run on a PREEMPT_RT kernel (docs/franka.md), or set "
                                       "realtime = \"ignore\" for a simulator") from None
@@ -117,8 +115,28 @@ class FrankaBackend:
             raise FrankaNotReadyError(f"{exc}: the robot's system version does not match franky's libfranka "
                                       "(docs/franka.md#versions)") from None
         except franky.Exception as exc:
-            raise FrankaNotReadyError(f"cannot reach the Franka at {cfg.host}: {exc} (is FCI enabled in Desk, the "
-                                      "brakes open, and this PC on the robot's network? docs/franka.md)") from None
+            raise FrankaNotReadyError(f"cannot reach the Franka at {cfg.host} within {cfg.connect_timeout_s:.0f} s: "
+                                      f"{exc} (is FCI enabled in Desk, the brakes open, and this PC on the "
+                                      "robot's network? docs/franka.md)") from None
+        return self._check_ready(robot)
+
+    def _open(self, realtime: Any) -> Any:
+        """Connect, retrying for ``connect_timeout_s`` (a simulator or Control box starting up)."""
+        franky, cfg = self._franky, self.config
+        deadline = time.monotonic() + cfg.connect_timeout_s
+        while True:
+            try:
+                return franky.Robot(cfg.host, relative_dynamics_factor=cfg.relative_dynamics_factor,
+                                    default_torque_threshold=cfg.torque_threshold_nm,
+                                    default_force_threshold=cfg.force_threshold_n, realtime_config=realtime)
+            except franky.NetworkException:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.2)
+
+    def _check_ready(self, robot: Any) -> Any:
+        """`robot` if it can move (a dry run only says when not), after recovery if asked."""
+        cfg = self.config
         state = robot.state
         errors = core.active_flags(state.current_errors, self._error_names)
         if errors and cfg.recover_on_start and not self.dry_run:

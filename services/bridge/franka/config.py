@@ -53,14 +53,16 @@ class FrankaConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
             figures (7 values each; empty: the model's).
         limit_margin_rad: commands closer than this to a position limit are refused (the
             robot's own joint-limit reflex would stop it there), rad.
-        max_step_rad: a command farther than this from the measured position is refused (a
-            jump, not a trajectory), rad.
+        max_step_rad: a command farther than this from the previous target (from the
+            measured position when holding) is refused (a jump, not a trajectory), rad.
         relative_dynamics_factor: scales the robot's velocity, acceleration and jerk limits
             for following commands (0.05–1.0); stops always use the full limits.
         position_gain_per_s: the bridge's position loop: commanded velocity = feed-forward +
             gain × (target − measured), 1/s.
         robot_command_timeout_s: each velocity command is held this long on the robot; with
             no newer one the robot brakes by itself (a stalled bridge), s.
+        connect_timeout_s: keep trying to reach the robot this long at start (a simulator
+            or a Control box still starting up), s.
         state_lost_timeout_s: the robot's clock did not advance for this long: the robot is
             lost, the bridge stops with the fault, s.
         realtime: ``enforce`` (a PREEMPT_RT kernel is required, as on a real robot) or
@@ -91,6 +93,7 @@ class FrankaConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
     position_gain_per_s: Annotated[float, Meta(ge=0.0, le=50.0)] = 5.0
     robot_command_timeout_s: Annotated[float, Meta(ge=0.02, le=1.0)] = 0.05
     state_lost_timeout_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.2
+    connect_timeout_s: Annotated[float, Meta(ge=0.0, le=120.0)] = 10.0
     realtime: Literal["enforce", "ignore"] = "enforce"
     recover_on_start: bool = False
     torque_threshold_nm: Annotated[float, Meta(gt=0.0, le=100.0)] = 20.0

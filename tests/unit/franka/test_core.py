@@ -97,7 +97,7 @@ def test_gate_refuses_a_jump_and_holds():
     far = current.copy()
     far[1] += 0.11
     reason = gate.offer(names, far.tolist(), 0.01, current)
-    assert reason is not None and "panda_joint2 is 0.110 rad" in reason
+    assert reason is not None and "panda_joint2 jumps 0.110 rad" in reason
     decision = gate.decide(0.02)
     assert decision.holding and decision.target_rad is None and gate.rejected == 1
     # Without the rule (the simulated arm) the same command is taken.
