@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import psutil
 import pytest
 
 from bus_schema import topics
@@ -133,6 +134,10 @@ def test_follows_commands_holds_refuses_and_grips(rig):
             assert wait_until(lambda: state.latest() is not None, 30.0), bridge.log_text()
             first = state.latest().msg
             assert first.backend == "franka" and list(first.names) == NAMES
+            # The simulated robot listens on its loopback address only (franky-sim's UDP loop
+            # socket would bind every interface: `keep_on_loopback`).
+            bound = {c.laddr.ip for c in psutil.Process(sim.pid).net_connections(kind="inet") if c.laddr}
+            assert bound and all(ip.startswith("127.") for ip in bound), bound
             assert first.position_rad == pytest.approx(HOME.tolist(), abs=0.01)
             # 100 Hz on the bus
             state.drain()

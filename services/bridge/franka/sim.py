@@ -77,12 +77,34 @@ def write_state(path: Path, robot: Any, sim_time_s: float) -> None:
     os.replace(tmp, path)
 
 
+def keep_on_loopback(host: str) -> None:
+    """Make franky-sim's servers bind `host` (a loopback address) where its code binds every
+    interface: its UDP loop socket binds ``0.0.0.0`` (franky-sim 1.0.4, `franka_server.py`),
+    and the stack listens on loopback only. Patches the module's `socket` name with a
+    namespace whose `socket` class rewrites a wildcard bind; nothing else changes."""
+    import socket
+    import types
+
+    from franky_sim import franka_server
+
+    class LoopbackSocket(socket.socket):
+        def bind(self, address: Any) -> None:
+            if isinstance(address, tuple) and address and address[0] in ("0.0.0.0", ""):
+                address = (host, *address[1:])
+            super().bind(address)
+
+    shim = types.SimpleNamespace(**{name: getattr(socket, name) for name in dir(socket) if not name.startswith("__")})
+    shim.socket = LoopbackSocket
+    franka_server.socket = shim  # type: ignore[attr-defined]
+
+
 def run_sim(profile: Profile, config: FrankaSimConfig) -> int:
     """Run the simulated robot until SIGINT/SIGTERM. Returns the exit code."""
     import franky_sim
     from franky_sim.mujoco_simulator import MujocoSimulator
 
     logging.getLogger("numba").setLevel(logging.WARNING)
+    keep_on_loopback(config.host)
     kwargs = {"initial_q": tuple(config.initial_q_rad)} if config.initial_q_rad else {}
     state_path = Path(config.state_file) if config.state_file else None
     with MujocoSimulator(enable_visualization=False) as sim:
