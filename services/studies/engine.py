@@ -171,6 +171,10 @@ def _client(scheduler: str | None, workers: int) -> Iterator[Any]:
 
     from services.studies.engine_worker import KeepFreedMemory
 
+    # The scheduler of a local cluster runs in this process: its INFO lines (start, workers,
+    # connections, and a traceback when a comm closes at teardown) are not the user's business
+    # when all is well. `silence_logs` covers the worker processes only.
+    logging.getLogger("distributed").setLevel(logging.WARNING)
     if scheduler is not None:
         try:
             remote = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s", set_as_default=False)

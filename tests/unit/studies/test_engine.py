@@ -195,3 +195,17 @@ def test_workers_with_an_address_and_an_unreachable_cluster(monkeypatch):
     with pytest.raises(EngineError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:1") as err:
         run_tasks(T.fails_on_three, [1], address="127.0.0.1:1", show_progress=False)
     assert not err.value.bad_input and time.monotonic() - t0 < 15
+
+
+def test_a_local_run_says_nothing_when_all_is_well():
+    """The local cluster's scheduler runs in the caller's process: its INFO lines (and the
+    traceback Dask logs when a comm closes at teardown) stay off the console."""
+    script = textwrap.dedent("""
+        from services.studies.engine import run_tasks
+        from tests.unit.studies import engine_tasks as T
+        print(run_tasks(T.square_after, [(3, 0.0), (4, 0.0)], workers=1, show_progress=False))
+    """)
+    done = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[9, 16]"
+    assert "distributed" not in done.stderr and "Traceback" not in done.stderr, done.stderr
