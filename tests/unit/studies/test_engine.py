@@ -134,6 +134,17 @@ def test_the_local_cluster_listens_on_loopback_and_is_torn_down(tmp_path):
     assert _our_children() == before
 
 
+def test_a_tasks_own_child_does_not_outlive_the_local_cluster(tmp_path):
+    """A task that starts a process (an evaluation episode's launcher, in a session of its
+    own) and is still running when the call ends: the child must go with the cluster, not be
+    left behind, re-parented to init, once its worker is gone."""
+    with pytest.raises(EngineError, match="told to fail"):
+        run_tasks(T.child_or_failure, [(0, str(tmp_path)), (1, str(tmp_path))], workers=2, show_progress=False)
+    children = [int(p.name.split("-")[1]) for p in tmp_path.glob("child-*")]
+    assert len(children) == 1
+    assert wait_until(lambda: not _alive(children[0]), 10.0), "the task's child is still running"
+
+
 def _args_of(folder: Path) -> list:
     return [(x, str(folder)) for x in range(200)]
 
