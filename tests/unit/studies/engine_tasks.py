@@ -70,3 +70,19 @@ def child_or_failure(argument: tuple[int, str]) -> int:
     while not list(Path(folder).glob("child-*")) and time.monotonic() < deadline:
         time.sleep(0.05)
     raise RuntimeError("told to fail once the other task's child runs")
+
+
+def _class_gone() -> None:
+    raise AttributeError("module 'results' has no attribute 'Outcome' (renamed since the run)")
+
+
+class Unloadable:
+    """A result that pickles but cannot be loaded again (as one whose class was renamed since)."""
+
+    def __reduce__(self):
+        return (_class_gone, ())
+
+
+def unloadable_on_one(x: int) -> object:
+    """x, or for 1 a result that cannot be loaded back from a checkpoint."""
+    return Unloadable() if x == 1 else x
