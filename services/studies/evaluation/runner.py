@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -23,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from services.launcher.logins import logins_dir
 from services.runtime.profile import REPO_ROOT
 from services.studies.evaluation.djt_reference import djt_optimum_base_m
 from services.studies.evaluation.episode_profile import read_base_profile, write_episode_profile
@@ -168,6 +170,10 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         return done
     folder = episode_dir(run_dir, task.episode)
     folder.mkdir(parents=True, exist_ok=True)
+    # An attempt whose launcher was killed (Ctrl-C in `run_stack`, a worker's end) left its
+    # logins folder, which its launcher deletes at any other exit; a launcher with the same run
+    # id refuses to start beside it, and the episode would be recorded as a stack error.
+    shutil.rmtree(logins_dir(folder, run_id(task.episode)), ignore_errors=True)
     _base_path, base = read_base_profile(task.base_profile)
     draw = draw_episode(task.run_seed, task.episode)
     profile = write_episode_profile(base, draw, folder / "profile.toml")
