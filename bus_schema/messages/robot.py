@@ -32,7 +32,7 @@ class JointState(Message, frozen=True, kw_only=True):
         position_rad, velocity_rad_s, effort_nm: per joint, same order as `names`.
         holding: True while the arm holds position because no fresh command arrived within
             the command time-out (200 ms) or a command was rejected.
-        backend: ``sim`` or ``baxter``.
+        backend: ``sim``, ``baxter`` or ``franka``.
         enabled: the robot is enabled (always True in simulation).
     """
 
@@ -41,7 +41,7 @@ class JointState(Message, frozen=True, kw_only=True):
     velocity_rad_s: JointVelocities
     effort_nm: JointEfforts = []
     holding: bool = True
-    backend: Literal["sim", "baxter"] = "sim"
+    backend: Literal["sim", "baxter", "franka"] = "sim"
     enabled: bool = True
 
 

@@ -81,7 +81,7 @@ class ArmLoop:
         self.backend = backend
         self.period_s = 1.0 / config.rate_hz
         self.gate = CommandGate(backend.joint_names, backend.limits, config.command_timeout_s,
-                                config.limit_tolerance_rad)
+                                config.limit_tolerance_rad, getattr(backend, "max_step_rad", None))
         self.brake = StopBrake(config.stop_deceleration_rad_s2)
         self.truth_gate = RepeatGate(TRUTH_REPEAT_S)
         #: The newest `motion/stop` drained so far (a newer one queued makes a tick urgent).
@@ -185,7 +185,10 @@ class ArmLoop:
         """Brake, hold or servo the arm for this tick; returns whether it holds."""
         backend, brake = self.backend, self.brake
         decision = self.gate.decide(now_s)
-        if brake.active:
+        if brake.active and hasattr(backend, "brake"):
+            backend.brake()  # a robot that brakes within its own limits (the Franka): at once
+            holding = True
+        elif brake.active:
             velocity = brake.step(dt_s)
             if brake.at_rest:
                 backend.hold()

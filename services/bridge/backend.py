@@ -251,4 +251,9 @@ def make_backend(name: str, contact: Any = None, **kwargs: Any) -> Backend:
                                     "`python -m services.bridge.baxter` (see docs/baxter.md)")
         return BaxterBackend(kwargs["profile"], kwargs.get("baxter"), dry_run=bool(kwargs.get("dry_run", False)),
                              dry_run_sink=kwargs.get("dry_run_sink"))
-    raise BridgeConfigError(f"unknown bridge backend {name!r} (known: sim, baxter)")
+    if name == "franka":
+        from services.bridge.franka.backend import FrankaBackend
+
+        return FrankaBackend(kwargs.get("franka"), dry_run=bool(kwargs.get("dry_run", False)),
+                             dry_run_sink=kwargs.get("dry_run_sink"))
+    raise BridgeConfigError(f"unknown bridge backend {name!r} (known: sim, baxter, franka)")

@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
         "rejects commands with unknown joints or out-of-limit values, and brakes at once on "
         "motion/stop. The simulated Kinect is its own service (python -m services.sim_kinect).",
     )
-    parser.add_argument("--backend", choices=["sim", "baxter"], default=None,
+    parser.add_argument("--backend", choices=["sim", "baxter", "franka"], default=None,
                         help="robot backend (overrides [services.bridge.config].backend); baxter: the real "
                              "robot through the Zenoh ROS 1 bridge (see also handover-bridge-baxter --dry-run)")
     parser.add_argument("--rate-hz", type=float, default=None,

@@ -9,6 +9,7 @@ from msgspec import Meta
 
 from services.bridge.baxter.config import BaxterConfig
 from services.bridge.errors import BridgeConfigError
+from services.bridge.franka.config import FrankaConfig
 
 
 ReceiverBehaviour = Literal["taking", "dropping", "bumping", "hesitating", "absent"]
@@ -64,8 +65,9 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
     """Bridge settings.
 
     Attributes:
-        backend: ``sim`` (robot_sim in real time) or ``baxter`` (the real robot, see
-            docs/baxter.md; run it with ``python -m services.bridge.baxter``).
+        backend: ``sim`` (robot_sim in real time), ``baxter`` (the real robot, see
+            docs/baxter.md; run it with ``python -m services.bridge.baxter``) or ``franka``
+            (a Panda / FR3 through franky, docs/franka.md; ``python -m services.bridge.franka``).
         rate_hz: joint-state publication and servo rate, Hz.
         command_timeout_s: hold the arm when no fresh joint command arrived for this long, s
             (the default arm's own time-out is 0.2 s).
@@ -87,9 +89,10 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
             baseline of tests/bench/test_bench_bridge_stop.py).
         contact: the contact plant (gripper, object, receiver, sensors).
         baxter: the Baxter backend (ROS 1 topics over Zenoh, safety on hardware).
+        franka: the Franka backend (robot address, joint names and limits, the Hand).
     """
 
-    backend: Literal["sim", "baxter"] = "sim"
+    backend: Literal["sim", "baxter", "franka"] = "sim"
     rate_hz: Annotated[float, Meta(ge=1.0, le=1000.0)] = 100.0
     command_timeout_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.2
     servo_time_constant_s: Annotated[float, Meta(gt=0.0, le=5.0)] = 0.05
@@ -100,6 +103,7 @@ class BridgeConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fie
     stop_wakes_loop: bool = True
     contact: ContactConfig = ContactConfig()
     baxter: BaxterConfig = BaxterConfig()
+    franka: FrankaConfig = FrankaConfig()
 
 
 def parse_config(table: dict[str, Any]) -> BridgeConfig:

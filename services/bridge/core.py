@@ -51,6 +51,10 @@ class CommandGate:
         limits: their limits (rad).
         command_timeout_s: hold after this long without a valid command, s.
         limit_tolerance_rad: accepted excursion past a limit, rad.
+        max_step_rad: a command whose target is farther than this from the previous target
+            (from the measured position when there is none: holding, or the first command)
+            is rejected (a jump, not a trajectory), rad; None: no such rule (the
+            simulated arm); hardware backends whose robot would fault on a jump set it.
     """
 
     def __init__(
@@ -59,6 +63,7 @@ class CommandGate:
         limits: JointLimits,
         command_timeout_s: float = 0.2,
         limit_tolerance_rad: float = 1e-3,
+        max_step_rad: float | None = None,
     ) -> None:
         self.joint_names = tuple(joint_names)
         self._index = {name: i for i, name in enumerate(self.joint_names)}
@@ -67,6 +72,7 @@ class CommandGate:
         self._clip_lower = limits.lower_rad
         self._clip_upper = limits.upper_rad
         self.command_timeout_s = command_timeout_s
+        self.max_step_rad = max_step_rad
         self._velocity_limit = limits.velocity_rad_s
         self._target_rad: np.ndarray | None = None
         self._feedforward_rad_s = np.zeros(len(self.joint_names))
@@ -144,6 +150,13 @@ class CommandGate:
         target = base.copy()
         for index, value in pairs:
             target[index] = value
+        step = self._too_far(target, base)
+        if step is not None:
+            self.rejected += 1
+            self._target_rad = None
+            self._last_valid_s = None
+            self._rejected_reason = f"rejected command: {step}"
+            return step
         feedforward = np.zeros(len(self.joint_names))
         for (index, _), v in zip(pairs, velocity_rad_s, strict=False):
             feedforward[index] = float(v)
@@ -153,6 +166,17 @@ class CommandGate:
         self._rejected_reason = ""
         self.accepted += 1
         return None
+
+    def _too_far(self, target_rad: np.ndarray, reference_rad: np.ndarray) -> str | None:
+        """Why `target_rad` is too far from `reference_rad` for `max_step_rad`, or None."""
+        if self.max_step_rad is None:
+            return None
+        step = np.abs(target_rad - np.asarray(reference_rad, float))
+        worst = int(np.argmax(step))
+        if step[worst] <= self.max_step_rad:
+            return None
+        return (f"joint command {self.joint_names[worst]} jumps {step[worst]:.3f} rad "
+                f"(at most {self.max_step_rad:.3f} rad per command: send a trajectory, not a jump)")
 
     def decide(self, now_s: float) -> Decision:
         """The servo target for this tick, or hold."""

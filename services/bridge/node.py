@@ -41,7 +41,7 @@ def _backend_for(profile: Profile, config: BridgeConfig) -> Backend:
     return make_backend(
         config.backend, contact=config.contact, time_constant_s=config.servo_time_constant_s,
         initial_position_rad=initial, robot_command_timeout_s=config.sim_robot_command_timeout_s,
-        profile=profile, baxter=config.baxter,
+        profile=profile, baxter=config.baxter, franka=config.franka,
     )
 
 

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 from bus_schema import topics
 from services.launcher.episode_watch import EpisodeReport, EpisodeWatch
-from services.launcher.supervisor_silence import SUPERVISOR_SILENT_S, SupervisorSilence
+from services.launcher.supervisor_silence import SUPERVISOR_SILENT_S, SimClockSilence, SupervisorSilence
 from services.runtime import ServiceNode
 
 #: The job's loop wakes at least this often to judge the supervisor's freshness, s.
@@ -42,7 +42,8 @@ class _EpisodeFeed:
     """The job's bus side: its subscriptions and the arm's protective stop, feeding what it
     reads to the episode watch and the supervisor's silence."""
 
-    def __init__(self, node: ServiceNode, say: Callable[[str], None], silence: SupervisorSilence) -> None:
+    def __init__(self, node: ServiceNode, say: Callable[[str], None],
+                 silence: SupervisorSilence | SimClockSilence) -> None:
         self.say = say
         self.silence = silence
         self.watch = EpisodeWatch()
@@ -64,11 +65,12 @@ class _EpisodeFeed:
 
     def take_truth(self) -> None:
         for rx in self.truth.drain():
+            self.silence.saw_stack_time(rx.msg.stamp_ns / 1e9)
             self.watch.truth(rx.msg)
 
     def take_states(self) -> None:
         for rx in self.states.drain():
-            self.silence.heard(rx.rx_monotonic, rx.msg.episode_id)
+            self.silence.heard(rx.rx_monotonic, rx.msg.episode_id, rx.msg.stamp_ns / 1e9)
             line = self.watch.state(rx.msg)
             if line is not None:
                 self.say(line)
@@ -104,8 +106,10 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
     CPU (its threads waiting on the run queue) is not called silent before
     `services.runtime.sched.MAX_EXCUSED_S`; a stopped or hung one still is at
     `SUPERVISOR_SILENT_S`; nor while the processes its states pass through (`delivery_pids`:
-    the router, this one) are starved."""
-    silence = SupervisorSilence(supervisor_pid, delivery_pids)
+    the router, this one) are starved. On the simulation clock the silence is counted in the
+    stack's time (`SimClockSilence`)."""
+    silence: SupervisorSilence | SimClockSilence = (
+        SimClockSilence() if node.clock.is_sim else SupervisorSilence(supervisor_pid, delivery_pids))
     feed = _EpisodeFeed(node, say, silence)
     last_loop_s = time.monotonic()
     while True:

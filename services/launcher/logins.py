@@ -55,6 +55,7 @@ PUBLISHES: dict[str, tuple[T.Topic, ...]] = {
     "planner": (T.TRANSFER,),
     "recorder": (),
     "fake_baxter": (T.SKELETON, T.DEPTH, T.SIM_TRUTH, T.KINECT_TRUTH),  # it plays the Kinect driver too
+    "franka_sim": (),  # franky-sim: the robot speaks libfranka's protocol, not the bus
 }
 
 #: The services that answer the simulation clock (`services.runtime.clock`), each on its own

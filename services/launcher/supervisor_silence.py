@@ -10,6 +10,10 @@ On one host (the supervisor's process id known) a silence is judged by the proce
 wait (`services.runtime.sched.StarvationJudge`): a supervisor starved of CPU, or whose states
 wait in a starved router or in this process, is excused up to
 `services.runtime.sched.MAX_EXCUSED_S`; a stopped (SIGSTOP) or hung one is not.
+
+On the simulation clock (`SimClockSilence`) the silence is counted in the stack's time: a
+supervisor is a participant of the clock, so a busy machine slows its time and cannot make it
+silent; only a supervisor the clock went on without (stopped or gone) falls behind.
 """
 
 from __future__ import annotations
@@ -69,8 +73,12 @@ class SupervisorSilence:
         if self._judge is not None:
             self._judge.tick(now_s)
 
-    def heard(self, rx_monotonic_s: float, episode_id: int) -> None:
-        """A supervisor state of `episode_id` received at `rx_monotonic_s` (monotonic s)."""
+    def saw_stack_time(self, stamp_s: float) -> None:
+        """A message stamped `stamp_s` (s) was received: nothing to do on the wall clock."""
+
+    def heard(self, rx_monotonic_s: float, episode_id: int, stamp_s: float = 0.0) -> None:
+        """A supervisor state of `episode_id` received at `rx_monotonic_s` (monotonic s),
+        stamped `stamp_s` (s; unused on the wall clock)."""
         self.last_state_s = rx_monotonic_s
         self.episode_begun = self.episode_begun or episode_id >= 1
 
@@ -113,3 +121,60 @@ class SupervisorSilence:
         if judge is None or pid is None or silent_s > MAX_EXCUSED_S or judge.stopped(pid, self._clock()):
             return None
         return judge.excuse(pid, self._clock()) or judge.excuse_path(self._delivery_pids, self._clock())
+
+
+#: On the simulation clock, a state's delivery may trail later messages of other senders by a
+#: few milliseconds (Zenoh orders samples per sender only); a silence is judged only once no
+#: state has come for this long on the wall clock too, s.
+SIM_WALL_GRACE_S = 0.05
+
+
+class SimClockSilence:
+    """The supervisor's silence on the simulation clock, in the stack's time: the latest stamp
+    seen on the bus (``sim/truth``, at least 10 Hz while the scene simulates) minus the stamp of
+    the supervisor's latest state. Nothing is excused: starvation slows the stack's time instead
+    of silencing the supervisor, whose steps the clock waits for; the owner goes on without it
+    only once it is stopped or gone (`services.runtime.clock_owner`).
+
+    Args:
+        clock: monotonic wall clock, s (for `SIM_WALL_GRACE_S`).
+    """
+
+    def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
+        self._clock = clock
+        #: The latest stamp seen on the bus, s of stack time (None before the first).
+        self.stack_now_s: float | None = None
+        #: Stamp (stack s) and receive time (monotonic s) of the supervisor's latest state.
+        self.last_state_stamp_s: float | None = None
+        self.last_state_s: float | None = None
+        self.episode_begun = False
+
+    def tick(self, now_s: float) -> None:
+        """Nothing to keep (no starvation figures on the simulation clock)."""
+
+    def saw_stack_time(self, stamp_s: float) -> None:
+        """A message stamped `stamp_s` (stack s) was received."""
+        if self.stack_now_s is None or stamp_s > self.stack_now_s:
+            self.stack_now_s = stamp_s
+
+    def heard(self, rx_monotonic_s: float, episode_id: int, stamp_s: float = 0.0) -> None:
+        """A supervisor state of `episode_id` stamped `stamp_s` (stack s), received at
+        `rx_monotonic_s` (monotonic s)."""
+        self.saw_stack_time(stamp_s)
+        self.last_state_stamp_s, self.last_state_s = stamp_s, rx_monotonic_s
+        self.episode_begun = self.episode_begun or episode_id >= 1
+
+    def silent_s(self) -> float:
+        """How long the supervisor has been silent, s of stack time (0 before the first
+        episode, and while a state came within `SIM_WALL_GRACE_S` of wall time)."""
+        if self.last_state_s is None or self.last_state_stamp_s is None or self.stack_now_s is None \
+                or not self.episode_begun or self._clock() - self.last_state_s <= SIM_WALL_GRACE_S:
+            return 0.0
+        return self.stack_now_s - self.last_state_stamp_s
+
+    def judge(self, silent_s: float) -> SilenceVerdict:
+        """A stop once the silence is longer than `SUPERVISOR_SILENT_S` of stack time."""
+        if silent_s <= SUPERVISOR_SILENT_S:
+            return SilenceVerdict()
+        return SilenceVerdict(f"supervisor: silent: no supervisor/state for {silent_s:.3f} s of simulated time; "
+                              "the launcher stopped the arm")

@@ -136,15 +136,39 @@ def run_main(run: Callable[[argparse.Namespace], int], args: argparse.Namespace,
         return EXIT_FAILURE
 
 
-def positive_int(text: str) -> int:
-    """An argparse type: a whole number >= 1 (a one-line usage error otherwise)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} must be >= 1")
-    return value
+def bounded_int(low: int, high: int | None = None) -> Callable[[str], int]:
+    """An argparse type: a whole number within [`low`, `high`] (no upper bound when `high` is
+    None); a one-line usage error otherwise."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+        if value < low or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"{value} must be >= {low}" if high is None
+                                             else f"{value} must be within {low}–{high}")
+        return value
+
+    return parse
+
+
+def bounded_seconds(low_s: float, high_s: float) -> Callable[[str], float]:
+    """An argparse type: a duration in seconds within [`low_s`, `high_s`]; a one-line usage
+    error otherwise."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
+        if not low_s <= value <= high_s:
+            raise argparse.ArgumentTypeError(f"{value:g} s must be within {low_s:g}–{high_s:g} s")
+        return value
+
+    return parse
+
+
+#: An argparse type: a whole number >= 1.
+positive_int = bounded_int(1)
 
 
 def is_input_error(exc: ServiceError) -> bool:

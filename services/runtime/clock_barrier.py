@@ -83,13 +83,15 @@ class ClockBarrier:
         if p is None:
             return False
         p.registered = True
+        if p.pending and done_ns < self.now_ns and not leaving:
+            # An answer to an older step (a repeat, or an old process's): it still owes this
+            # one, and an event it reports was already given its event step.
+            return True
         if events:
             self.event_pending = True
         if leaving:
             p.next_ns, p.pending, p.excused = NEVER_NS, False, True
             return True
-        if p.pending and done_ns < self.now_ns:
-            return True  # an answer to an older step (or an old process's): it still owes this one
         p.pid = pid or p.pid
         p.excused = False  # back (SIGCONT, a restart, a late answer): it takes part again from now on
         p.pending = False

@@ -97,6 +97,15 @@ class ClockOwner:
         self._slow_log = RateLimitedLog(log, SLOW_REPORT_S)
         self._started_wall_s: float | None = None  # when it began waiting for the participants
         self._first_step_wall_s: float | None = None
+        #: Steps granted to each participant (said in the log at exit).
+        self.grants: dict[str, int] = {}
+        #: Wall time spent waiting for the participants' answers, s (said in the log at exit).
+        self.waited_s = 0.0
+        #: Per participant: the wall time from grant to answer summed over its steps, s, and how
+        #: many steps it answered last (the participants on the clock's critical path).
+        self.answer_s: dict[str, float] = {}
+        self.last_to_answer: dict[str, int] = {}
+        self._granted_wall_s = 0.0
 
     def attach(self, node: ServiceNode) -> None:
         """Grant steps on `node`'s bus and take the participants' answers and liveliness."""
@@ -122,7 +131,10 @@ class ClockOwner:
                 self._slow_log.warning(msg.source, f"simulation clock: {msg.source} is not a participant of this run "
                                                    f"(expected: {', '.join(sorted(barrier.expected))}): ignored")
                 return
+            if msg.source in self.grants:
+                self.answer_s[msg.source] = self.answer_s.get(msg.source, 0.0) + time.monotonic() - self._granted_wall_s
             if not any(p.pending for p in barrier.participants.values()):
+                self.last_to_answer[msg.source] = self.last_to_answer.get(msg.source, 0) + 1
                 self._cond.notify_all()  # the last answer of the step: one wake of the owner, not one per answer
 
     def _on_liveliness(self, name: str, alive: bool) -> None:
@@ -185,7 +197,9 @@ class ClockOwner:
             return
         payload = encode_for(topics.CLOCK, ClockGrant(seq=step.number, stamp_ns=self._stamps.now_ns(), source=self.name,
                                                       step=step.number, time_ns=step.time_ns, due=list(step.due)))
+        self._granted_wall_s = time.monotonic()
         for name in step.due:
+            self.grants[name] = self.grants.get(name, 0) + 1
             pub = self._grant_pubs.get(name)
             if pub is None:
                 pub = self._grant_pubs[name] = self._session.declare_publisher(
@@ -204,6 +218,8 @@ class ClockOwner:
                 if step is not None:
                     if self._first_step_wall_s is None:
                         self._first_step_wall_s = time.monotonic()
+                    else:
+                        self.waited_s += time.monotonic() - since_s
                     return step
                 self._cond.wait(STOPPED_CHECK_S)
                 self._check_quiet(time.monotonic() - since_s)
@@ -237,6 +253,10 @@ class ClockOwner:
                      "in %.2f s of wall time: %.2f× real time; %d participant(s) excused", b.steps,
                      b.owner_only_steps, b.event_steps, b.now_ns / 1e9, wall_s, b.now_ns / 1e9 / max(wall_s, 1e-9),
                      b.excusals)
+            log.info("simulation clock: %.2f s of the %.2f s waiting for answers; per participant: steps "
+                     "granted, mean ms from grant to answer, steps answered last: %s", self.waited_s, wall_s,
+                     ", ".join(f"{name} {count} {1e3 * self.answer_s.get(name, 0.0) / count:.2f} "
+                               f"{self.last_to_answer.get(name, 0)}" for name, count in sorted(self.grants.items())))
         for pub in self._grant_pubs.values():
             try:
                 pub.undeclare()

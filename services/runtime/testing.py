@@ -62,6 +62,43 @@ def interrupt_then_kill(proc: subprocess.Popen, timeout_s: float = 20.0) -> int:
         return proc.wait(5.0)
 
 
+def kill_tree(proc: subprocess.Popen, wait_s: float = 10.0) -> None:
+    """Kill a process this test started (e.g. `handover-up`) and whatever children it still
+    has, by their PIDs (for a run that did not end by itself), and reap it (up to `wait_s`)."""
+    import psutil
+
+    try:
+        children = psutil.Process(proc.pid).children(recursive=True)
+    except psutil.NoSuchProcess:
+        children = []
+    for child in children:
+        try:
+            child.kill()
+        except psutil.NoSuchProcess:
+            pass
+    if proc.poll() is None:
+        proc.kill()
+    proc.wait(timeout=wait_s)
+
+
+def run_launcher(args: list[str], timeout_s: float) -> tuple[int, str]:
+    """Run ``python -m services.launcher ARGS`` (`handover-up`) to its end; (exit code, stdout and
+    stderr as one text). A run still going after `timeout_s` is killed with its children and
+    raises AssertionError with the end of its output."""
+    import sys
+
+    proc = subprocess.Popen([sys.executable, "-m", "services.launcher", *args], stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, text=True)
+    try:
+        out, _ = proc.communicate(timeout=timeout_s)
+    except subprocess.TimeoutExpired:
+        kill_tree(proc)
+        out, _ = proc.communicate()
+        raise AssertionError(f"handover-up {' '.join(args)} did not exit in {timeout_s:.0f} s:\n"
+                             f"{out[-6000:]}") from None
+    return proc.returncode, out
+
+
 def wait_until(predicate: Callable[[], bool], timeout_s: float, interval_s: float = 0.01) -> bool:
     """Poll `predicate` until it is true or `timeout_s` passes; return its last value."""
     deadline = time.monotonic() + timeout_s

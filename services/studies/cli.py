@@ -2,12 +2,15 @@
 
     handover-study bench       Monte-Carlo benchmark of the gripper's release controllers
     handover-study oracle-tune tune the sensor-only family of the benchmark's oracle bound
+    handover-study tune        tune a release controller's parameters (CMA-ES) into a preset
+    handover-study intent      how well the wrist tells a taking receiver from the others, early
     handover-study reproduce   thesis Figures 20-23 and their comparison table
     handover-study failsafe    the fail-safe law's thresholds: fst | fbt | conditions
     handover-study figures     the docs pages' figures: motion | planner | gripper | all
     handover-study experiment  candidate transfer positions of the thesis's experiment
     handover-study record      one simulated tracker episode to a replay file
     handover-study evaluate    the tracker's hand error against the simulator's truth
+    handover-study tracker-defaults  the tracker configuration to ship, chosen and confirmed on other seeds
     handover-study crosscheck  the contact plant against MuJoCo, scenario by scenario
 
 None of them needs the bus or a running stack. Exit codes: 0 done, 1 a failure while running,
@@ -29,18 +32,22 @@ PROG = "handover-study"
 def _commands() -> list[tuple[str, str, Callable[[argparse.ArgumentParser], None], Callable]]:
     """(name, description, add_arguments, run) of every study command."""
     from services.studies import crosscheck_command, figures_command
-    from services.studies.gripper import analysis_command, bench_command, oracle_command, reproduce_command
+    from services.studies.gripper import (analysis_command, bench_command, intent_command, oracle_command,
+                                          reproduce_command, tune_command)
     from services.studies.planner import experiment_command
     from services.studies.tracker import commands as tracker
 
     modules: list[tuple[str, ModuleType]] = [
-        ("bench", bench_command), ("oracle-tune", oracle_command), ("reproduce", reproduce_command),
+        ("bench", bench_command), ("oracle-tune", oracle_command), ("tune", tune_command), ("intent", intent_command),
+        ("reproduce", reproduce_command),
         ("failsafe", analysis_command), ("figures", figures_command), ("experiment", experiment_command),
         ("crosscheck", crosscheck_command),
     ]
     table = [(name, module.DESCRIPTION, module.add_arguments, module.run) for name, module in modules]
     table.append(("record", tracker.RECORD_DESCRIPTION, tracker.add_record_arguments, tracker.run_record))
     table.append(("evaluate", tracker.EVALUATE_DESCRIPTION, tracker.add_evaluate_arguments, tracker.run_evaluate))
+    table.append(("tracker-defaults", tracker.DEFAULTS_DESCRIPTION, tracker.add_defaults_arguments,
+                  tracker.run_defaults))
     return table
 
 

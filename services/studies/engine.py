@@ -171,6 +171,10 @@ def _client(scheduler: str | None, workers: int) -> Iterator[Any]:
 
     from services.studies.engine_worker import KeepFreedMemory
 
+    # The scheduler of a local cluster runs in this process: its INFO lines (start, workers,
+    # connections, and a traceback when a comm closes at teardown) are not the user's business
+    # when all is well. `silence_logs` covers the worker processes only.
+    logging.getLogger("distributed").setLevel(logging.WARNING)
     if scheduler is not None:
         try:
             remote = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s", set_as_default=False)
@@ -202,14 +206,17 @@ def _client(scheduler: str | None, workers: int) -> Iterator[Any]:
 
 
 def _close_local(client, cluster, before: set[int]) -> None:
-    """Close the client and the local cluster; terminate any of its processes still alive."""
+    """Close the client and the local cluster; terminate any of its processes still alive,
+    the tasks' own children too (listed before the workers go: a child in a session of its
+    own, an evaluation episode's launcher, is re-parented to init once its worker is gone)."""
+    spawned = _spawned(before)
     with contextlib.suppress(Exception):
         if client is not None:
             client.close(timeout=CLOSE_TIMEOUT_S)
     with contextlib.suppress(Exception):
         if cluster is not None:
             cluster.close(timeout=CLOSE_TIMEOUT_S)
-    left = [p for p in psutil.Process().children(recursive=True) if p.pid not in before and not _is_helper(p)]
+    left = [p for p in {*spawned, *_spawned(before)} if p.is_running()]  # is_running: not a reused pid
     for p in left:
         with contextlib.suppress(psutil.Error):
             p.terminate()
@@ -219,6 +226,11 @@ def _close_local(client, cluster, before: set[int]) -> None:
             p.kill()
     if left:
         log.warning("terminated %d process(es) the local cluster left behind", len(left))
+
+
+def _spawned(before: set[int]) -> list[psutil.Process]:
+    """This process's descendants not in `before` (pids), Python's resource tracker aside."""
+    return [p for p in psutil.Process().children(recursive=True) if p.pid not in before and not _is_helper(p)]
 
 
 def _is_helper(process: psutil.Process) -> bool:

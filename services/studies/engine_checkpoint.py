@@ -6,7 +6,8 @@ A checkpoint is one binary file of pickled records:
    and one SHA-256 digest per task argument (of its pickle, protocol 5);
 2. then one ``(index, digest, result)`` record per finished task, in the order they finished,
    each flushed and fsync'ed before the next task's result is taken (a crash loses at most the
-   record being written; a torn last record is cut off on the next open).
+   record being written; a torn last record is cut off on the next open; a whole record that
+   does not load, its result's class renamed since, is refused and nothing is cut).
 
 Opening an existing checkpoint for the same function and the same arguments returns the
 finished results (the engine skips those tasks: resume); any difference (function, number of
@@ -124,8 +125,12 @@ def _read(path: Path, expected: dict) -> tuple[dict[int, Any], int]:
                 index, digest, result = pickle.load(fh)
             except EOFError:
                 break
-            except Exception:  # noqa: BLE001 - a record torn by a crash: keep what precedes it
+            except pickle.UnpicklingError:  # a record torn by a crash: keep what precedes it
                 break
+            except Exception as exc:  # noqa: BLE001 - a whole record that does not load is not torn
+                raise EngineUsageError(f"{path}: the result of a finished task (record {len(done) + 1}) cannot be "
+                                       f"loaded ({type(exc).__name__}: {exc}); the checkpoint is left as it is. "
+                                       f"Load it with the code that wrote it, or {fresh}") from exc
             if not (isinstance(index, int) and 0 <= index < expected["tasks"]) or digest != expected["digests"][index]:
                 break
             done[index] = result

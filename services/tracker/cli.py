@@ -3,6 +3,7 @@
     handover-tracker [--profile sim] [--replay FILE [--replay-loop]]   run the service
     handover-tracker offline FILE                                      run the pipeline on a file, print a summary
     handover-tracker calibrate-kinect PAIRS.csv -o FILE                the ROS 1 camera's pose from point pairs
+    handover-tracker camera-sample DIR                                 the sample camera input of deploy/camera.toml
 """
 
 from __future__ import annotations
@@ -35,6 +36,12 @@ def run(args: argparse.Namespace) -> int:
         from services.tracker.ros1.cli_calibrate import calibrate
 
         return calibrate(args.pairs, args.output, args.frame, args.force)
+    if command == "camera-sample":
+        from services.tracker.camera.photos import write_sample
+
+        frames = write_sample(args.folder)
+        print(f"sample camera input: {frames} frame(s), aligned depth and calibration.toml -> {args.folder}")
+        return 0
     raise TrackerConfigError(f"unknown command {command!r}")
 
 
@@ -100,7 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="publish from a replay file instead of the bus inputs")
     parser.add_argument("--replay-loop", action="store_true", help="start the replay file over when it ends")
     add_config_flags(parser)
-    sub = parser.add_subparsers(dest="command", metavar="{run,offline,calibrate-kinect}")
+    sub = parser.add_subparsers(dest="command", metavar="{run,offline,calibrate-kinect,camera-sample}")
     sub.add_parser("run", help="run the service (the default)")
     off = sub.add_parser("offline", help="run the pipeline over a replay file without the bus and print a summary")
     off.add_argument("file", type=Path, help="replay file")
@@ -111,6 +118,9 @@ def build_parser() -> argparse.ArgumentParser:
     cal.add_argument("-o", "--output", type=Path, required=True, help="the calibration file to write")
     cal.add_argument("--frame", default="openni_depth_frame", help="the camera frame the points were read in")
     cal.add_argument("--force", action="store_true", help="overwrite an existing calibration file")
+    sample = sub.add_parser("camera-sample", help="write the sample camera input (a photo from scikit-image, its "
+                                                  "aligned depth, the calibration) that deploy/camera.toml reads")
+    sample.add_argument("folder", type=Path, help="where to write it (deploy/camera_sample for the profile)")
     return parser
 
 

@@ -18,10 +18,13 @@ def add_config_flags(p: argparse.ArgumentParser) -> None:
     g.add_argument("--object-mass-kg", type=float, default=None, help="object mass from the task description (kg)")
     g.add_argument("--no-lag-correction", action="store_true", help="disable Mincelli's lag correction (a)")
     g.add_argument("--no-proximity-filter", action="store_true", help="disable Mincelli's robot-proximity filter (b)")
+    g.add_argument("--proximity-filter", action="store_true",
+                   help="enable (b), off by default: it doubled the median hand error (docs/tracker.md#defaults)")
     g.add_argument("--proximity-mode", choices=["hold", "predict"], default=None, help="what (b) does while engaged")
-    g.add_argument("--sensor", choices=["bus", "sim", "ros1"], default=None,
-                   help="skeleton and depth from the bus, from a simulated Kinect in this process, or from "
-                        "openni_tracker and a depth camera through the Zenoh ROS 1 bridge (docs/kinect_ros1.md)")
+    g.add_argument("--sensor", choices=["bus", "sim", "ros1", "camera"], default=None,
+                   help="skeleton and depth from the bus, from a simulated Kinect in this process, from "
+                        "openni_tracker and a depth camera through the Zenoh ROS 1 bridge (docs/kinect_ros1.md), "
+                        "or from a camera through a 2-D body-pose model (docs/camera.md)")
     g.add_argument("--publish-depth", action="store_true",
                    help="sensor = \"sim\" or \"ros1\": also publish perception/depth (for a recorder that "
                         "records depth)")
@@ -44,8 +47,12 @@ def config_from_args(args: argparse.Namespace, base: dict) -> TrackerConfig:
         values["object_mass_kg"] = args.object_mass_kg
     if args.no_lag_correction:
         values["lag_correction"] = False
+    if args.no_proximity_filter and getattr(args, "proximity_filter", False):
+        raise TrackerConfigError("--proximity-filter and --no-proximity-filter contradict each other")
     if args.no_proximity_filter:
         values["proximity_filter"] = False
+    if getattr(args, "proximity_filter", False):
+        values["proximity_filter"] = True
     if args.proximity_mode is not None:
         values["proximity_mode"] = args.proximity_mode
     if getattr(args, "sensor", None) is not None:

@@ -24,3 +24,8 @@ class ReplayFileError(TrackerError):
 class CalibrationError(TrackerConfigError):
     """The camera's calibration file is missing or invalid (the message names the file and
     the key; docs/kinect_ros1.md#calibration says how to measure it)."""
+
+
+class CameraError(TrackerError):
+    """The camera path cannot run: no camera, an unreadable file or folder, the body-pose
+    model's package missing (the message says what to check; docs/camera.md)."""

@@ -113,9 +113,13 @@ def ros1_calibration(profile: Profile, config: TrackerConfig) -> CameraPose:
 
 
 def _inputs(node: ServiceNode, config: TrackerConfig, replay_path: Path | None, replay_loop: bool,
-            pose: CameraPose | None):
+            pose: CameraPose | None, rig=None, object_pub=None):
     """The tick's input source: a replay file, the in-process simulated Kinect, the ROS 1
-    Kinect or the bus."""
+    Kinect, a camera or the bus."""
+    if rig is not None:
+        from services.tracker.camera.source import CameraInputs
+
+        return CameraInputs(rig, node, object_pub)
     if replay_path is not None:
         return ReplayInputs(replay_path, replay_loop, node.clock.now_s())
     if config.sensor == "sim":
@@ -132,6 +136,11 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
     """Run the tracker until shutdown (or the end of the replay file)."""
     # A missing or invalid calibration stops the start here, before the node joins the bus.
     pose = ros1_calibration(profile, config) if config.sensor == "ros1" and replay_path is None else None
+    rig = None
+    if config.sensor == "camera" and replay_path is None:  # no camera, file or model: stop here too
+        from services.tracker.camera.worker import open_rig
+
+        rig = open_rig(config.camera, profile.path.parent if profile.path is not None else Path.cwd())
     log.info("process: %s", tune_process())
     arm = ArmGeometry()
     pipe = TrackerPipeline(config, arm)
@@ -139,7 +148,7 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
     with ServiceNode("tracker", profile) as node:
         human_pub = node.publisher(T.HUMAN)
         object_pub = node.publisher(T.OBJECT)
-        inputs = _inputs(node, config, replay_path, replay_loop, pose)
+        inputs = _inputs(node, config, replay_path, replay_loop, pose, rig, object_pub)
         rate_hz = config.sim_kinect.rate_hz if isinstance(inputs, SimKinectInputs) else config.rate_hz
         log.info("tracker inputs: %s", "replay" if replay_path is not None else config.sensor,
                  extra=kv(rate_hz=rate_hz))
@@ -170,7 +179,7 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
         if isinstance(inputs, SimKinectInputs):
             log.info("simulated Kinect stopped", extra=kv(frames=inputs.frames, skipped=inputs.skipped,
                                                           failed=inputs.failed))
-        elif hasattr(inputs, "stats"):  # the ROS 1 Kinect
+        elif hasattr(inputs, "stats"):  # the ROS 1 Kinect or the camera
             inputs.close()
-            log.info("ROS 1 Kinect stopped", extra=kv(**inputs.stats()))
+            log.info("%s stopped", "camera" if rig is not None else "ROS 1 Kinect", extra=kv(**inputs.stats()))
     return 0

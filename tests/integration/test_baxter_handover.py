@@ -28,7 +28,6 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import psutil
 import pytest
 
 from bus_schema import topics
@@ -39,7 +38,7 @@ from services.launcher.logins import OBSERVER, login_profile
 from services.tracker.ros1.calibration import load_calibration
 from services.tracker.ros1.messages import Image, TFMessage
 from services.runtime import ServiceNode
-from services.runtime.testing import free_tcp_port, loopback_profile
+from services.runtime.testing import free_tcp_port, kill_tree, loopback_profile
 from tests.faults.matrix import stopped_before_the_fault
 
 #: The whole run (start-up ≈ 10–20 s on a loaded 2-core machine, episode ≈ 7 s, shutdown ≈ 3 s).
@@ -92,22 +91,6 @@ class _RosTap:
             sub.undeclare()
 
 
-def _kill_tree(proc: subprocess.Popen) -> None:
-    """Kill the launcher we started and whatever children it still has (by PID)."""
-    try:
-        children = psutil.Process(proc.pid).children(recursive=True)
-    except psutil.NoSuchProcess:
-        children = []
-    for child in children:
-        try:
-            child.kill()
-        except psutil.NoSuchProcess:
-            pass
-    if proc.poll() is None:
-        proc.kill()
-    proc.wait(timeout=KILL_WAIT_S)
-
-
 @dataclass
 class _BaxterRun:
     """What one ``handover-up --profile baxter_fake`` run put on the bus and printed."""
@@ -151,7 +134,7 @@ def _run_stack(tmp_path, run_id: str) -> _BaxterRun:
         try:
             out, _ = proc.communicate(timeout=RUN_TIMEOUT_S)
         except subprocess.TimeoutExpired:
-            _kill_tree(proc)
+            kill_tree(proc, KILL_WAIT_S)
             out, _ = proc.communicate()
             pytest.fail(f"handover-up did not finish in {RUN_TIMEOUT_S:.0f} s:\n{out[-6000:]}")
         skeleton_msgs = [rx.msg for rx in skeletons.drain()]
@@ -165,7 +148,7 @@ def _run_stack(tmp_path, run_id: str) -> _BaxterRun:
         if node is not None:
             node.close()
         if proc.poll() is None:
-            _kill_tree(proc)
+            kill_tree(proc, KILL_WAIT_S)
 
 
 def test_full_handover_through_the_baxter_backend_and_the_fake_robot(tmp_path):

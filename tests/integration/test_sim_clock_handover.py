@@ -16,7 +16,7 @@ import psutil
 import pytest
 
 from services.recorder.readback import read_component
-from services.runtime.testing import free_tcp_port
+from services.runtime.testing import free_tcp_port, kill_tree, run_launcher
 
 pytestmark = pytest.mark.integration
 
@@ -30,26 +30,9 @@ COMPARED = (
 
 
 def _run(tmp_path: Path, run_id: str, *args: str, timeout_s: float = 120.0) -> tuple[int, str, Path]:
-    cmd = [sys.executable, "-m", "services.launcher", "--clock", "sim", "--port", str(free_tcp_port()),
-           "--recording-dir", str(tmp_path), "--run-id", run_id, *args]
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    try:
-        out, _ = proc.communicate(timeout=timeout_s)
-    except subprocess.TimeoutExpired:
-        _kill_tree(proc)
-        out, _ = proc.communicate()
-        pytest.fail(f"handover-up --clock sim did not exit in {timeout_s} s:\n{out}")
-    return proc.returncode, out, tmp_path / f"handover-{run_id}.rrd"
-
-
-def _kill_tree(proc: subprocess.Popen) -> None:
-    try:
-        children = psutil.Process(proc.pid).children(recursive=True)
-    except psutil.NoSuchProcess:
-        children = []
-    for child in children:
-        child.kill()
-    proc.kill()
+    code, out = run_launcher(["--clock", "sim", "--port", str(free_tcp_port()), "--recording-dir", str(tmp_path),
+                              "--run-id", run_id, *args], timeout_s)
+    return code, out, tmp_path / f"handover-{run_id}.rrd"
 
 
 def _episode(path: Path) -> dict[str, list]:
@@ -76,31 +59,51 @@ def test_one_seed_gives_the_same_episode_step_for_step(tmp_path):
     assert "released" in str(a["summary"][0])
 
 
-def test_a_participant_killed_mid_episode_is_noticed_and_the_clock_goes_on(tmp_path):
-    port = free_tcp_port()
-    cmd = [sys.executable, "-m", "services.launcher", "--clock", "sim", "--port", str(port),
-           "--recording-dir", str(tmp_path), "--run-id", "k", "--seed", "5", "--verbose"]
+def _signal_mid_reach(tmp_path: Path, run_id: str, service: str, sig: signal.Signals) -> tuple[int, str]:
+    """Run one sim-clock episode and send `sig` to `service` when the reach begins; (exit code,
+    console). A stopped service is continued before the run is cleaned up."""
+    cmd = [sys.executable, "-m", "services.launcher", "--clock", "sim", "--port", str(free_tcp_port()),
+           "--recording-dir", str(tmp_path), "--run-id", run_id, "--seed", "5", "--verbose"]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     lines: list[str] = []
+    victim = None
     try:
         assert proc.stdout is not None
         deadline = time.monotonic() + 90.0
-        victim = None
         for line in proc.stdout:
             lines.append(line)
             if victim is None and "episode 1: reach" in line:
                 victim = next(c for c in psutil.Process(proc.pid).children(recursive=True)
-                              if "services.motion" in " ".join(c.cmdline()))
-                os.kill(victim.pid, signal.SIGKILL)
+                              if f"services.{service}" in " ".join(c.cmdline()))
+                os.kill(victim.pid, sig)
             if time.monotonic() > deadline:
                 break
         proc.wait(timeout=30)
     finally:
+        if victim is not None and sig == signal.SIGSTOP and victim.is_running():
+            os.kill(victim.pid, signal.SIGCONT)
         if proc.poll() is None:
-            _kill_tree(proc)
+            kill_tree(proc)
     out = "".join(lines)
     assert victim is not None, out
-    assert proc.returncode != 0, out
-    assert "PROTECTIVE_STOP: protective stop: motion: process gone" in out, out
+    return proc.returncode, out
+
+
+def test_a_participant_killed_mid_episode_is_noticed_and_the_clock_goes_on(tmp_path):
+    code, out = _signal_mid_reach(tmp_path, "k", "motion", signal.SIGKILL)
+    assert code != 0, out
+    # Whichever notices first: the supervisor's watchdog (in simulated time) or the launcher,
+    # which sees its child die.
+    assert ("PROTECTIVE_STOP: protective stop: motion: process gone" in out
+            or "protective stop: motion was killed by SIGKILL" in out), out
     assert "stop: braking" in out, "the bridge brakes the arm"
     assert "simulation clock" not in out or "waited" not in out, "the clock must not wait for a dead participant"
+
+
+def test_a_supervisor_stopped_mid_reach_is_silent_in_simulated_time_and_the_launcher_stops_the_arm(tmp_path):
+    """The launcher's watch of the supervisor counts its silence in the stack's time: the clock
+    goes on without a stopped (SIGSTOP) supervisor, and the watch stops the arm."""
+    code, out = _signal_mid_reach(tmp_path, "s", "supervisor", signal.SIGSTOP)
+    assert code != 0, out
+    assert "no supervisor/state for" in out and "s of simulated time; the launcher stopped the arm" in out, out
+    assert "stop: braking" in out, "the bridge brakes the arm"

@@ -11,6 +11,7 @@ from services.gripper.controllers.common import DEFAULT_PERIOD_S, ModeReportingC
 from services.gripper.controllers.fail_safe import FS_PRESETS, FailSafeController
 from services.gripper.controllers.human_inspired import HumanInspiredController, HumanInspiredParams
 from services.gripper.controllers.slip_guard import SG_PRESETS, SlipGuardController
+from services.gripper.controllers.tuned import load_presets
 from services.gripper.errors import GripperError
 
 
@@ -77,6 +78,34 @@ _REGISTRY: dict[str, _Entry] = {
     "SG-v2": _Entry(_sg_factory("SG-v2"), "ours, version 2 (kept for comparison): c_hold=4, no hold cap, s_cap=3"),
 }
 
+
+
+def _tuned_factory(name: str, base: str, params: dict) -> Callable[..., ModeReportingController]:
+    """Builder of a tuned preset (`tuned_presets.json`): its base controller with the tuned
+    parameters, then any overrides."""
+    def build(period_s: float = DEFAULT_PERIOD_S, **overrides) -> ModeReportingController:
+        if base not in _REGISTRY or base in _TUNED:
+            raise GripperError(f"tuned preset {name!r}: unknown base controller {base!r}")
+        return _REGISTRY[base].factory(period_s=period_s, **{**params, **overrides})
+
+    return build
+
+
+def _register_tuned() -> set[str]:
+    names = set()
+    for name, entry in load_presets().items():
+        if name in _REGISTRY:
+            raise GripperError(f"tuned preset {name!r} would shadow a built-in controller; rename it")
+        prov = entry.get("provenance", {})
+        summary = (f"{entry['base']} tuned by `handover-study tune` (CMA-ES, seed {prov.get('seed', '?')}, "
+                   f"{prov.get('episodes', '?')} episodes of {prov.get('population', '?')})")
+        _REGISTRY[name] = _Entry(_tuned_factory(name, entry["base"], entry["params"]), summary)
+        names.add(name)
+    return names
+
+
+_TUNED: set[str] = set()
+_TUNED |= _register_tuned()
 CONTROLLER_NAMES: tuple[str, ...] = tuple(_REGISTRY)
 
 

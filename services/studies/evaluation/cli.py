@@ -23,7 +23,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from services.runtime.cli import HelpFormatter, one_line_parser, positive_int, run_subcommand
+from services.runtime.cli import (HelpFormatter, bounded_int, bounded_seconds, one_line_parser, positive_int,
+                                  run_subcommand)
 from services.studies.evaluation.errors import EvaluationError
 
 PROG = "handover-eval"
@@ -31,24 +32,9 @@ PROG = "handover-eval"
 DEFAULT_WORKERS = max(1, (os.cpu_count() or 1) // 2)
 
 
-def _non_negative_seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if not 0 <= value < 2**63:
-        raise argparse.ArgumentTypeError(f"{value} must be within 0–2^63−1")
-    return value
-
-
-def _timeout(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
-    if not 30.0 <= value <= 3600.0:
-        raise argparse.ArgumentTypeError(f"{value:g} s must be within 30–3600 s")
-    return value
+#: `--seed`: any 63-bit seed; `--timeout-s`: the stack's stop after this long.
+_non_negative_seed = bounded_int(0, 2**63 - 1)
+_timeout = bounded_seconds(30.0, 3600.0)
 
 
 def _add_run(sub: Any) -> None:

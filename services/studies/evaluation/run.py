@@ -61,8 +61,11 @@ def _manifest(options: RunOptions) -> dict[str, Any]:
         manifest = read_manifest(out)
         for name in ("seed", "profile", "clock"):
             given = getattr(options, name)
-            if given is not None and str(given) != str(manifest.get(name, "wall")):
-                raise EvaluationError(f"--{name} {given} differs from the resumed run's ({manifest[name]}); drop it "
+            kept = str(manifest.get(name, "wall"))  # a run from before --clock ran on the wall clock
+            if name == "profile" and given is not None:  # the manifest keeps the resolved path
+                given = str(read_base_profile(given)[0].resolve())
+            if given is not None and str(given) != kept:
+                raise EvaluationError(f"--{name} {given} differs from the resumed run's ({kept}); drop it "
                                       "or start a new run in another --out", bad_input=True)
         if options.episodes is not None:
             manifest["episodes"] = options.episodes  # more (or fewer): the same seed draws the same episodes

@@ -13,16 +13,21 @@ even without the engine's checkpoint). The launcher hosts its own bus on a free 
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from services.launcher.logins import logins_dir
 from services.runtime.profile import REPO_ROOT
 from services.studies.evaluation.djt_reference import djt_optimum_base_m
 from services.studies.evaluation.episode_profile import read_base_profile, write_episode_profile
@@ -89,13 +94,29 @@ def _environment() -> dict[str, str]:
     return env
 
 
-def run_stack(command: list[str], console: Path, timeout_s: float) -> tuple[int, bool]:
+@contextlib.contextmanager
+def episode_lock(folder: Path) -> Iterator[int]:
+    """Hold the episode folder's lock (``.episode.lock``, `flock`) for as long as this block and
+    any process the lock's file descriptor (yielded) is passed to run. An attempt whose worker
+    died leaves its launcher running with the descriptor: a second attempt (the engine runs the
+    task again elsewhere) waits here until that stack has ended instead of running beside it
+    into the same folder."""
+    fd = os.open(folder / ".episode.lock", os.O_RDWR | os.O_CREAT, 0o644)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield fd
+    finally:
+        os.close(fd)
+
+
+def run_stack(command: list[str], console: Path, timeout_s: float, keep_fds: tuple[int, ...] = ()) -> tuple[int, bool]:
     """Run `command` (the launcher) with its output into `console`; (exit code, timed out).
     At the time-out the launcher gets SIGINT (it stops its stack in order), then SIGKILL
-    after `STOP_GRACE_S` (its services get SIGTERM from the kernel when it dies)."""
+    after `STOP_GRACE_S` (its services get SIGTERM from the kernel when it dies). `keep_fds`:
+    descriptors the launcher inherits (the episode's lock)."""
     with console.open("wb") as out:
         proc = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT, env=_environment(),
-                                cwd=str(console.parent), start_new_session=True)
+                                cwd=str(console.parent), start_new_session=True, pass_fds=keep_fds)
         try:
             return proc.wait(timeout=timeout_s), False
         except subprocess.TimeoutExpired:
@@ -133,12 +154,13 @@ def read_record(run_dir: Path, episode: int) -> dict[str, Any] | None:
 
 
 def run_and_record(folder: Path, profile: Path, draw: EpisodeDraw, planner_config: dict[str, Any],
-                   timeout_s: float, clock: str = "sim") -> dict[str, Any]:
+                   timeout_s: float, clock: str = "sim", keep_fds: tuple[int, ...] = ()) -> dict[str, Any]:
     """Run the stack of `profile` (the episode of `draw`) with its output in `folder`; the
-    record read from its recording (``record.json`` is written by the caller)."""
+    record read from its recording (``record.json`` is written by the caller). `keep_fds`:
+    descriptors the launcher inherits (the episode's lock)."""
     t0 = time.monotonic()
     command = launcher_command(profile, folder, draw.episode, clock)
-    code, timed_out = run_stack(command, folder / "console.txt", timeout_s)
+    code, timed_out = run_stack(command, folder / "console.txt", timeout_s, keep_fds)
     wall_s = time.monotonic() - t0
     recording = recording_file(folder, draw.episode)
     try:
@@ -168,9 +190,17 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         return done
     folder = episode_dir(run_dir, task.episode)
     folder.mkdir(parents=True, exist_ok=True)
-    _base_path, base = read_base_profile(task.base_profile)
-    draw = draw_episode(task.run_seed, task.episode)
-    profile = write_episode_profile(base, draw, folder / "profile.toml")
-    record = run_and_record(folder, profile, draw, planner_config(base), task.timeout_s, task.clock)
-    write_json(folder / "record.json", record)
+    with episode_lock(folder) as lock_fd:
+        done = read_record(run_dir, task.episode)  # another attempt finished it meanwhile
+        if done is not None:
+            return done
+        # An attempt whose launcher was killed (Ctrl-C in `run_stack`, a worker's end) left its
+        # logins folder, which its launcher deletes at any other exit; a launcher with the same
+        # run id refuses to start beside it, and the episode would be recorded as a stack error.
+        shutil.rmtree(logins_dir(folder, run_id(task.episode)), ignore_errors=True)
+        _base_path, base = read_base_profile(task.base_profile)
+        draw = draw_episode(task.run_seed, task.episode)
+        profile = write_episode_profile(base, draw, folder / "profile.toml")
+        record = run_and_record(folder, profile, draw, planner_config(base), task.timeout_s, task.clock, (lock_fd,))
+        write_json(folder / "record.json", record)
     return record

@@ -16,6 +16,8 @@ from services.runtime.cli import positive_int
 from services.tracker.config_args import add_config_flags, config_from_args, profile_config
 
 RECORD_DESCRIPTION = "Simulate one seeded tracker episode (Kinect, joints, truth) and write a replay file."
+DEFAULTS_DESCRIPTION = ("Choose the tracker's correction settings on selection seeds and confirm the choice "
+                        "on other seeds (the evidence behind the shipped defaults).")
 EVALUATE_DESCRIPTION = ("Hand-position error of the tracker against the simulator's truth, per Mincelli "
                         "correction and handover phase, over seeded episodes.")
 
@@ -75,3 +77,39 @@ def run_evaluate(args: argparse.Namespace) -> int:
         plot_trace(trace, args.figure)
         print(f"figure: {args.figure}")
     return 0
+
+
+def add_defaults_arguments(p: argparse.ArgumentParser) -> None:
+    """Flags of `tracker-defaults`."""
+    p.add_argument("--episodes", type=positive_int, default=16, help="episodes per seed set")
+    p.add_argument("--select-seed", type=int, default=0, help="first seed of the selection set")
+    p.add_argument("--confirm-seed", type=int, default=1000, help="first seed of the confirmation set")
+    p.add_argument("--json", type=Path, default=Path("out/tracker/defaults.json"), help="results file")
+
+
+def run_defaults(args: argparse.Namespace) -> int:
+    """Evaluate every candidate on both seed sets; print the tables, the choice and whether it holds."""
+    import json
+
+    from services.studies.tracker.defaults import best, evaluate_candidates
+    from services.studies.tracker.evaluate import markdown_table
+    from services.tracker.config import TrackerConfig
+
+    if abs(args.select_seed - args.confirm_seed) < args.episodes:
+        print("handover-study tracker-defaults: error: the selection and confirmation seeds overlap", file=sys.stderr)
+        return 2
+    base = TrackerConfig()
+    sets = {"selection": range(args.select_seed, args.select_seed + args.episodes),
+            "confirmation": range(args.confirm_seed, args.confirm_seed + args.episodes)}
+    out = {}
+    for label, seeds in sets.items():
+        summary = evaluate_candidates(seeds, base, progress=sys.stderr.isatty())
+        out[label] = {"seeds": [seeds.start, seeds.stop - 1], "summary": summary, "best": best(summary)}
+        print(f"\n{label} seeds {seeds.start}–{seeds.stop - 1}:\n{markdown_table(summary)}")
+    chosen, confirmed = out["selection"]["best"], out["confirmation"]["best"]
+    print(f"\nchosen on the selection seeds: {chosen}; best on the confirmation seeds: {confirmed} "
+          f"({'the choice holds' if chosen == confirmed else 'the choice does NOT hold'})")
+    args.json.parent.mkdir(parents=True, exist_ok=True)
+    args.json.write_text(json.dumps(out, indent=2))
+    print(f"results: {args.json}")
+    return 0 if chosen == confirmed else 1

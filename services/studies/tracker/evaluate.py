@@ -54,13 +54,15 @@ class EpisodeTrace:
     held: np.ndarray
 
 
-def evaluate_episode(seed: int, base: TrackerConfig,
-                     arm: ArmGeometry) -> tuple[dict[str, dict[str, list[float]]], EpisodeTrace]:
-    """Errors (m) per variant and phase for one episode, and its trace."""
-    pipes = {name: TrackerPipeline(msgspec.structs.replace(base, **flags), arm) for name, flags in VARIANTS.items()}
-    errors = {name: {p: [] for p in PHASES} for name in VARIANTS}
+def evaluate_episode(seed: int, base: TrackerConfig, arm: ArmGeometry,
+                     variants: dict[str, dict] | None = None) -> tuple[dict[str, dict[str, list[float]]], EpisodeTrace]:
+    """Errors (m) per variant (default `VARIANTS`; each must differ from ``none``'s flags only
+    where it says) and phase for one episode, and its trace."""
+    variants = {"none": VARIANTS["none"], **(variants or VARIANTS)}
+    pipes = {name: TrackerPipeline(msgspec.structs.replace(base, **flags), arm) for name, flags in variants.items()}
+    errors = {name: {p: [] for p in PHASES} for name in variants}
     ts, truth, tools, raw, held = [], [], [], [], []
-    hands: dict[str, list[np.ndarray]] = {name: [] for name in VARIANTS}
+    hands: dict[str, list[np.ndarray]] = {name: [] for name in variants}
     prev_truth = None
     for frame in run_episode(seed, arm):
         t = frame.t_s
@@ -84,7 +86,7 @@ def evaluate_episode(seed: int, base: TrackerConfig,
         truth.append(true_hand)
         tools.append(tool)
         raw.append(outs["none"].hand_raw_m)
-        held.append("proximity" in outs["both (a)+(b)"].correction)
+        held.append("proximity" in outs.get("both (a)+(b)", outs["none"]).correction)
         for name, est in outs.items():
             err = float(np.linalg.norm(est.hand_m - true_hand))
             errors[name][phase].append(err)

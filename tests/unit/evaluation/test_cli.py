@@ -45,3 +45,22 @@ def test_a_folder_with_a_run_is_not_overwritten_and_a_resume_keeps_its_seed(tmp_
     assert main(["replay", "--run", str(run), "--episode", "1"]) == 2
     assert "has not run yet" in capsys.readouterr().err
     assert sorted(p.name for p in run.iterdir()) == ["manifest.json"]
+
+
+def test_a_resume_accepts_the_runs_own_profile_by_name_and_says_a_legacy_runs_clock(tmp_path, capsys):
+    """The manifest keeps the base profile's resolved path: `--profile sim` names the same file
+    and must not be called different. A run from before `--clock` (no clock in its manifest)
+    ran on the wall clock: `--clock sim` is refused in one line that says so, not a KeyError."""
+    from services.runtime.profile import resolve_profile_path
+    from services.studies.evaluation.run import RunOptions, _manifest
+
+    run = tmp_path / "run"
+    run.mkdir()
+    sim = str(resolve_profile_path("sim").resolve())
+    (run / "manifest.json").write_text(json.dumps({"seed": 4, "episodes": 2, "profile": sim, "timeout_s": 240.0}))
+    options = RunOptions(out=run, episodes=None, seed=None, profile="sim", workers=1, address=None, timeout_s=240.0,
+                         resume=True)
+    assert _manifest(options)["profile"] == sim
+    assert main(["run", "--resume", "--clock", "sim", "--out", str(run)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--clock sim differs from the resumed run's (wall)" in err and len(err.splitlines()) == 1, err

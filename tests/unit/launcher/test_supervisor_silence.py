@@ -10,7 +10,9 @@ from services.launcher.supervisor_silence import (
     NOTE_AFTER_S,
     STOPPED_AFTER_S,
     SUPERVISOR_SILENT_S,
+    SIM_WALL_GRACE_S,
     SilenceVerdict,
+    SimClockSilence,
     SupervisorSilence,
 )
 from services.runtime.sched import MAX_EXCUSED_S
@@ -152,3 +154,55 @@ def test_the_supervisor_gone_from_the_children_is_judged_without_excuse():
     assert judge.ticks == [clock.now_s]
     assert silence.judge(_heard_in_episode(silence, clock, SUPERVISOR_SILENT_S + 0.05)).stop_reason is not None
     assert judge.noted == []
+
+
+# --- on the simulation clock: the silence is counted in the stack's time ----------------------
+
+def _sim_silence() -> tuple[SimClockSilence, _Clock]:
+    wall = _Clock()
+    silence = SimClockSilence(clock=wall)
+    silence.heard(wall.now_s, 1, stamp_s=5.0)
+    return silence, wall
+
+
+def test_on_the_sim_clock_a_slow_stack_is_never_silent():
+    """Minutes of wall time with no state are no silence while the stack's time stands still
+    (a busy machine slows the clock, whose steps wait for the supervisor)."""
+    silence, wall = _sim_silence()
+    wall.now_s += 120.0
+    silence.saw_stack_time(5.01)
+    assert silence.silent_s() == pytest.approx(0.01)
+    assert silence.judge(silence.silent_s()) == SilenceVerdict()
+
+
+def test_on_the_sim_clock_a_supervisor_left_behind_stops_the_arm_in_stack_time():
+    silence, wall = _sim_silence()
+    wall.now_s += 0.06
+    silence.saw_stack_time(5.0 + SUPERVISOR_SILENT_S - 0.01)
+    assert silence.judge(silence.silent_s()).stop_reason is None
+    silence.saw_stack_time(5.0 + SUPERVISOR_SILENT_S + 0.05)
+    verdict = silence.judge(silence.silent_s())
+    assert verdict.stop_reason is not None and "0.250 s of simulated time" in verdict.stop_reason
+
+
+def test_on_the_sim_clock_a_state_that_trails_other_senders_by_milliseconds_is_waited_for():
+    """Zenoh orders samples per sender: a state may arrive a few ms after later truth."""
+    silence, wall = _sim_silence()
+    wall.now_s += SIM_WALL_GRACE_S / 2
+    silence.saw_stack_time(6.0)
+    assert silence.silent_s() == 0.0
+    wall.now_s += SIM_WALL_GRACE_S
+    assert silence.silent_s() == pytest.approx(1.0)
+
+
+def test_on_the_sim_clock_the_watch_starts_with_the_first_episode_and_older_stamps_do_not_move_time_back():
+    wall = _Clock()
+    silence = SimClockSilence(clock=wall)
+    silence.heard(wall.now_s, 0, stamp_s=1.0)
+    silence.saw_stack_time(9.0)
+    wall.now_s += 1.0
+    assert silence.silent_s() == 0.0  # episode 0: before the first episode
+    silence.heard(wall.now_s, 1, stamp_s=9.5)
+    silence.saw_stack_time(9.2)  # a late, older stamp
+    wall.now_s += 1.0
+    assert silence.stack_now_s == 9.5 and silence.silent_s() == 0.0

@@ -107,3 +107,22 @@ def test_a_restarted_participant_is_taken_back_with_its_new_process():
     assert barrier.pid_of("planner") == 200 and not barrier.participants["planner"].excused
     step = barrier.next_step(10 * MS)
     assert step is not None and step.due == ("planner",) and step.time_ns == 1 * MS
+
+
+def test_a_stale_repeat_of_an_answer_with_events_makes_no_second_event_step():
+    """A participant blocked on the clock repeats its last answer once a second (wall time). A
+    repeat of an answer that said it sent an event, arriving just after the owner granted the
+    event step, is an answer to an older step: it must not make another event step, or the
+    number of steps (and the gripper's event-step ticks) would depend on the wall clock."""
+    barrier = _registered("motion", "supervisor")
+    barrier.next_step(10 * MS)  # 1 ms: both due
+    barrier.ready("supervisor", 1 * MS, 11 * MS, events=True)  # it sent a goal at 1 ms
+    barrier.ready("motion", 1 * MS, 11 * MS)
+    event = barrier.next_step(10 * MS)
+    assert event is not None and event.time_ns == 1 * MS + EVENT_STEP_NS
+    barrier.ready("supervisor", 1 * MS, 11 * MS, events=True)  # its repeat, sent before the grant reached it
+    assert barrier.waiting_for() == ["motion", "supervisor"]  # ignored as an answer…
+    barrier.ready("motion", event.time_ns, 11 * MS)
+    barrier.ready("supervisor", event.time_ns, 11 * MS)
+    after = barrier.next_step(10 * MS)
+    assert after is not None and after.time_ns == 10 * MS  # …and as an event: back to the grid

@@ -52,3 +52,37 @@ def slow_pid(argument: tuple[int, str]) -> int:
     time.sleep(0.4)
     (Path(folder) / f"done-{x}").write_text("")
     return x
+
+
+def child_or_failure(argument: tuple[int, str]) -> int:
+    """x = 0: starts a child process in a session of its own (as an evaluation episode starts
+    its launcher), writes its pid to ``child-<pid>`` in the folder and waits for it; any other
+    x: raises once that file exists (which ends the run while the child still runs)."""
+    import subprocess
+    import sys
+
+    x, folder = argument
+    if x == 0:
+        child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(120)"], start_new_session=True)
+        (Path(folder) / f"child-{child.pid}").write_text("")
+        return child.wait()
+    deadline = time.monotonic() + 60.0
+    while not list(Path(folder).glob("child-*")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    raise RuntimeError("told to fail once the other task's child runs")
+
+
+def _class_gone() -> None:
+    raise AttributeError("module 'results' has no attribute 'Outcome' (renamed since the run)")
+
+
+class Unloadable:
+    """A result that pickles but cannot be loaded again (as one whose class was renamed since)."""
+
+    def __reduce__(self):
+        return (_class_gone, ())
+
+
+def unloadable_on_one(x: int) -> object:
+    """x, or for 1 a result that cannot be loaded back from a checkpoint."""
+    return Unloadable() if x == 1 else x

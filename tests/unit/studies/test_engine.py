@@ -122,6 +122,18 @@ def test_a_torn_last_record_is_cut_off_and_rerun(tmp_path):
     assert log.read_text().split() == ["4"] and ckpt.read_bytes() == whole
 
 
+def test_a_record_that_cannot_be_loaded_is_refused_not_cut_off(tmp_path):
+    """Only a torn last record (a crash while writing) is cut off. A whole record that does not
+    load (its result's class renamed since the run) must not make the checkpoint drop it and
+    every record after it: the resume is refused and the file left as it is."""
+    ckpt = tmp_path / "c.ckpt"
+    run_tasks(T.unloadable_on_one, range(4), workers=1, checkpoint_path=ckpt, show_progress=False)
+    whole = ckpt.read_bytes()
+    with pytest.raises(EngineUsageError, match="cannot be loaded"):
+        run_tasks(T.unloadable_on_one, range(4), workers=1, checkpoint_path=ckpt, show_progress=False)
+    assert ckpt.read_bytes() == whole
+
+
 def test_the_local_cluster_listens_on_loopback_and_is_torn_down(tmp_path):
     before = _our_children()
     seen = run_tasks(T.whereabouts, [os.getpid()] * 4, workers=2, show_progress=False)
@@ -132,6 +144,17 @@ def test_the_local_cluster_listens_on_loopback_and_is_torn_down(tmp_path):
     with pytest.raises(EngineError, match="task 3 failed"):  # also after a failing task
         run_tasks(T.fails_on_three, range(6), workers=2, show_progress=False)
     assert _our_children() == before
+
+
+def test_a_tasks_own_child_does_not_outlive_the_local_cluster(tmp_path):
+    """A task that starts a process (an evaluation episode's launcher, in a session of its
+    own) and is still running when the call ends: the child must go with the cluster, not be
+    left behind, re-parented to init, once its worker is gone."""
+    with pytest.raises(EngineError, match="told to fail"):
+        run_tasks(T.child_or_failure, [(0, str(tmp_path)), (1, str(tmp_path))], workers=2, show_progress=False)
+    children = [int(p.name.split("-")[1]) for p in tmp_path.glob("child-*")]
+    assert len(children) == 1
+    assert wait_until(lambda: not _alive(children[0]), 10.0), "the task's child is still running"
 
 
 def _args_of(folder: Path) -> list:
@@ -195,3 +218,17 @@ def test_workers_with_an_address_and_an_unreachable_cluster(monkeypatch):
     with pytest.raises(EngineError, match="cannot reach the Dask scheduler at tcp://127.0.0.1:1") as err:
         run_tasks(T.fails_on_three, [1], address="127.0.0.1:1", show_progress=False)
     assert not err.value.bad_input and time.monotonic() - t0 < 15
+
+
+def test_a_local_run_says_nothing_when_all_is_well():
+    """The local cluster's scheduler runs in the caller's process: its INFO lines (and the
+    traceback Dask logs when a comm closes at teardown) stay off the console."""
+    script = textwrap.dedent("""
+        from services.studies.engine import run_tasks
+        from tests.unit.studies import engine_tasks as T
+        print(run_tasks(T.square_after, [(3, 0.0), (4, 0.0)], workers=1, show_progress=False))
+    """)
+    done = subprocess.run([sys.executable, "-c", script], cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[9, 16]"
+    assert "distributed" not in done.stderr and "Traceback" not in done.stderr, done.stderr

@@ -126,8 +126,9 @@ def scenes(arm):
 
 
 @pytest.mark.parametrize("scene", ["reach", "idle"])
-@pytest.mark.parametrize("config", [TrackerConfig(), TrackerConfig(lag_min_speed_m_s=0.0)],
-                         ids=["default", "lag_always"])
+@pytest.mark.parametrize("config", [TrackerConfig(proximity_filter=True, lag_min_speed_m_s=0.35),
+                                    TrackerConfig(proximity_filter=True, lag_min_speed_m_s=0.0), TrackerConfig()],
+                         ids=["both_corrections", "lag_always", "default"])
 def test_pipeline_outputs_equal_the_previous_pipeline(arm, scenes, scene, config):
     new, ref = TrackerPipeline(config, arm), HeadPipeline(config, arm)
     seen: set[str] = set()
@@ -144,7 +145,7 @@ def test_pipeline_outputs_equal_the_previous_pipeline(arm, scenes, scene, config
         seen.add(outs[0][0].correction)
         seen.add(outs[0][0].body.posture)
     assert {"standing", "sitting"} & seen  # a body estimate was made
-    if scene == "reach":
+    if scene == "reach" and config.proximity_filter:
         assert {"proximity_hold", "lag+proximity_hold"} & seen
     if scene == "reach" and config.lag_min_speed_m_s == 0.0:
         assert {"lag", "lag+proximity_hold"} & seen

@@ -21,7 +21,7 @@ def arm():
 
 
 def test_empty_and_stale_skeletons_give_a_clear_untracked_state(arm):
-    pipe = TrackerPipeline(TrackerConfig(skeleton_timeout_s=0.5, lag_min_speed_m_s=0.0), arm)
+    pipe = TrackerPipeline(TrackerConfig(skeleton_timeout_s=0.5, lag_min_speed_m_s=0.0, proximity_filter=True), arm)
     assert not pipe.human_state(0.0).tracked
     est = pipe.on_skeleton(skeleton_frame_from_message(Skeleton(seq=0, stamp_ns=0, source="t", tracked=True), 0.0))
     assert not est.tracked and "no person" in est.status
@@ -36,7 +36,7 @@ def test_empty_and_stale_skeletons_give_a_clear_untracked_state(arm):
 
 
 def test_proximity_hold_engages_in_the_pipeline_near_the_robot_hand(arm):
-    pipe = TrackerPipeline(TrackerConfig(lag_correction=False), arm)
+    pipe = TrackerPipeline(TrackerConfig(lag_correction=False, proximity_filter=True), arm)
     q = np.array(RIGHT_ARM_HOME_RAD)
     tool = arm.tool_position(q)
     pipe.on_joint_state(q, 0.0)

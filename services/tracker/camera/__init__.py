@@ -1,0 +1,1 @@
+"""The camera path: OpenCV capture, a 2-D body-pose model, depth, the receiver (docs/camera.md)."""
