@@ -32,6 +32,16 @@ from services.studies.gripper.tuning import OBJECTIVE_WEIGHTS, SPACES, hi_p95_n
 DESCRIPTION = "Tune a release controller's parameters with CMA-ES on the tuning seed; write the best as a preset."
 
 
+def _drop_weight(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 1.0 <= value <= 100.0:
+        raise argparse.ArgumentTypeError(f"{value:g} must be within 1–100 (a drop is at least one failure)")
+    return value
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Flags of `handover-study tune`."""
     p.add_argument("--controller", required=True, choices=sorted(SPACES), help="the controller whose parameters "
@@ -51,6 +61,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--write-preset", metavar="NAME", default=None, help="store the best parameters as controller "
                    f"preset NAME in {PRESETS_PATH.name} (e.g. SG-tuned)")
     p.add_argument("--presets-file", type=Path, default=PRESETS_PATH, help="the presets file --write-preset writes")
+    p.add_argument("--drop-weight", type=_drop_weight, default=1.0,
+                   help="a dropped object counts this many failures in the objective (1–100; 1: like a refused "
+                        "handover; keep it on --resume)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -69,7 +82,8 @@ def run(args: argparse.Namespace) -> int:
                   "chunk_size": args.chunk_size, "budget": args.budget, "popsize": args.popsize,
                   "optimiser": "cma.CMAEvolutionStrategy (cma 4.5.0, unit-cube bounds, sigma0 0.25, seed 1)",
                   "objective": "failure rate + w · (p95 overshoot, median release time, p95 above HI's)",
-                  "weights": OBJECTIVE_WEIGHTS, "space": {k: list(v) for k, v in space.bounds.items()}}
+                  "weights": OBJECTIVE_WEIGHTS, "drop_weight": args.drop_weight,
+                  "space": {k: list(v) for k, v in space.bounds.items()}}
     bar = tqdm(total=args.budget, unit="set", desc=f"tune {args.controller}", disable=args.quiet,
                dynamic_ncols=True)
 
@@ -83,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
     interrupted = False
     try:
         state = run_cma(space, chunks, args.budget, out, hi, provenance, resume=args.resume, popsize=args.popsize,
-                        on_generation=progress)
+                        on_generation=progress, drop_weight=args.drop_weight)
     except KeyboardInterrupt:
         interrupted = True
     except GripperError as exc:

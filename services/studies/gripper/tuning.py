@@ -4,6 +4,8 @@ batched evaluation of many parameter sets on the same episodes.
 Objective (lower is better), over the tuning episodes, for one parameter set:
 
     J = failure rate                                      (dropped, or a taking receiver not handed over)
+      + (drop weight − 1) × drop rate                     (`--drop-weight`, default 1: a drop counts as
+                                                           one failure, like a refused handover)
       + 0.005 / N  × p95 force overshoot                  (all taking episodes, the benchmark table's p95)
       + 0.05  / s  × median release time                  (after the receiver's grasp starts, handed over)
       + 0.05  / N  × max(0, p95 overshoot − HI's p95)     (HI run on the same episodes and noise)
@@ -16,7 +18,9 @@ the benchmark's laws span (p95 16–28 N, median release 0.40–0.50 s) they mov
 points at most and break ties between laws that fail equally often. The hinge is the issue's
 constraint "no larger p95 overshoot than HI" as a penalty: 5 failure points per N above HI's p95
 on the same episodes (the same weight as the oracle's capped family member), so a law that buys
-drops with a harder pull is pushed back under HI's tail.
+drops with a harder pull is pushed back under HI's tail. With the default drop weight of 1 a
+law may trade refused handovers for drops one for one (CMA-ES found such a law for SG: SG-tuned);
+`--drop-weight 3` says a fallen object costs three refused handovers, which a lab may prefer.
 
 Every parameter set of a generation runs in ONE vectorised batch per chunk (the chunk's episodes
 tiled once per set, each set's controller stepping its own slice: `SplitController`), with the
@@ -155,17 +159,20 @@ class Scores:
         med = np.nanmedian(np.where(has[:, None], rel, 0.0), axis=1)
         return np.where(has, med, 3.5)
 
-    def objective(self, hi_p95_n: float) -> np.ndarray:
-        """J per set (module docstring), given HI's p95 overshoot on the same episodes (N)."""
+    def objective(self, hi_p95_n: float, drop_weight: float = 1.0) -> np.ndarray:
+        """J per set (module docstring), given HI's p95 overshoot on the same episodes (N); a drop
+        counts `drop_weight` failures (≥ 1; a drop is also a failure)."""
         w = OBJECTIVE_WEIGHTS
         p95 = self.overshoot_p95_n()
-        return (self.failed.mean(axis=1) + w["overshoot_p95_per_n"] * p95
+        return (self.failed.mean(axis=1) + (drop_weight - 1.0) * self.dropped.mean(axis=1)
+                + w["overshoot_p95_per_n"] * p95
                 + w["release_time_per_s"] * self.release_time_median_s()
                 + w["above_hi_per_n"] * np.maximum(p95 - hi_p95_n, 0.0))
 
-    def summary(self, i: int, hi_p95_n: float) -> dict:
+    def summary(self, i: int, hi_p95_n: float, drop_weight: float = 1.0) -> dict:
         """Figures of set i (rates in [0, 1], N, s)."""
-        return {"objective": float(self.objective(hi_p95_n)[i]), "failure_rate": float(self.failed[i].mean()),
+        return {"objective": float(self.objective(hi_p95_n, drop_weight)[i]),
+                "failure_rate": float(self.failed[i].mean()),
                 "drop_rate": float(self.dropped[i].mean()), "overshoot_p95_n": float(self.overshoot_p95_n()[i]),
                 "release_time_median_s": float(self.release_time_median_s()[i]), "hi_overshoot_p95_n": hi_p95_n}
 

@@ -73,6 +73,9 @@ def test_objective_numbers():
     expected_under = 0.25 + w["overshoot_p95_per_n"] * p95 + w["release_time_per_s"] * 0.5
     assert s.objective(hi_p95_n=30.0)[0] == pytest.approx(expected_under)
     assert s.objective(hi_p95_n=p95 - 2.0)[0] == pytest.approx(expected_under + w["above_hi_per_n"] * 2.0)
+    # A drop weighed 3×: the one drop (a quarter of the episodes) adds two more quarters.
+    assert s.objective(hi_p95_n=30.0, drop_weight=3.0)[0] == pytest.approx(expected_under + 2 * 0.25)
+    assert s.summary(0, 30.0, drop_weight=3.0)["objective"] == pytest.approx(expected_under + 0.5)
     none = Scores(*(a.copy() for a in (s.failed, s.dropped, np.zeros_like(s.handed_over), s.overshoot_n,
                                        np.full_like(s.release_time_s, nan))))
     assert none.release_time_median_s()[0] == 3.5  # hands nothing over: the episode's length
@@ -114,3 +117,9 @@ def test_cli_tunes_and_writes_a_preset_the_registry_format_reads(tmp_path, capsy
     doc = json.loads(presets.read_text())["HI-x"]
     assert doc["base"] == "HI" and set(doc["params"]) == set(SPACES["HI"].names)
     assert doc["provenance"]["seed"] == 1000 and "best J" in capsys.readouterr().out
+
+
+def test_cli_drop_weight_below_one_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        study_main(["tune", "--controller", "SG", "--drop-weight", "0.5"])
+    assert exc.value.code == 2 and "within 1–100" in capsys.readouterr().err
