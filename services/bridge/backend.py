@@ -212,6 +212,14 @@ def _sim_kwargs(kwargs: dict[str, Any]) -> dict[str, Any]:
             if k in kwargs}
 
 
+def print_dry_run_line(line: str) -> None:
+    """A hardware backend's ``--dry-run`` sink: what it would send, one line on stdout."""
+    import sys
+
+    sys.stdout.write(f"[dry-run] {line}\n")
+    sys.stdout.flush()
+
+
 def make_backend(name: str, contact: Any = None, **kwargs: Any) -> Backend:
     """Backend by name (``sim``); with `contact` enabled, the sim runs the contact plant
     (``transfer`` scenario) or the whole handover scene (``handover``, with the receiver's

@@ -9,13 +9,12 @@ state, and prints every motion it would send without moving anything.
 from __future__ import annotations
 
 import argparse
-import sys
 
 from services.runtime import base_parser, load_profile, run_main
 
 
 def _run(args: argparse.Namespace) -> int:
-    from services.bridge.backend import make_backend
+    from services.bridge.backend import make_backend, print_dry_run_line
     from services.bridge.config import parse_config
     from services.bridge.node import run_bridge
 
@@ -32,12 +31,8 @@ def _run(args: argparse.Namespace) -> int:
     table["franka"] = franka
     config = parse_config(table)
 
-    def print_line(line: str) -> None:
-        sys.stdout.write(f"[dry-run] {line}\n")
-        sys.stdout.flush()
-
     backend = make_backend("franka", franka=config.franka, dry_run=args.dry_run,
-                           dry_run_sink=print_line if args.dry_run else None)
+                           dry_run_sink=print_dry_run_line if args.dry_run else None)
     return run_bridge(profile, config, backend=backend)
 
 

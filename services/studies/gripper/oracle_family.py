@@ -176,6 +176,13 @@ def _draw(dist: EpisodeDistribution, plan) -> tuple[ChunkSpec, np.random.SeedSeq
     return chunk, noise_seq
 
 
+def taking_overshoot_p95_n(overshoot_n: np.ndarray) -> np.ndarray:
+    """Per row of `overshoot_n` (N; NaN in the columns of episodes that are not a take), the p95
+    over the taking episodes, N (zeros when there is none): the benchmark table's p95."""
+    take = np.isfinite(overshoot_n[0])
+    return np.percentile(overshoot_n[:, take], 95, axis=1) if take.any() else np.zeros(len(overshoot_n))
+
+
 @dataclass(frozen=True)
 class Scores:
     """Per member (rows) and episode (columns): failed, dropped, handed over, and the force
@@ -188,8 +195,7 @@ class Scores:
 
     def overshoot_p95_n(self) -> np.ndarray:
         """p95 of the overshoot over all taking episodes per member (the benchmark table's), N."""
-        take = np.isfinite(self.overshoot_n[0])
-        return np.percentile(self.overshoot_n[:, take], 95, axis=1) if take.any() else np.zeros(len(self.failed))
+        return taking_overshoot_p95_n(self.overshoot_n)
 
     def objective(self, overshoot_cap_n: float | None = None) -> np.ndarray:
         """J per member (module docstring); with a cap, plus `CAP_PENALTY_PER_N` per N of p95

@@ -43,6 +43,7 @@ from services.gripper.controllers.registry import make_controller
 from services.gripper.errors import GripperError
 from services.studies.gripper.episodes import ChunkSpec
 from services.studies.gripper.oracle import subset_episodes
+from services.studies.gripper.oracle_family import taking_overshoot_p95_n
 
 __all__ = ["OBJECTIVE_WEIGHTS", "SPACES", "ParamSpace", "Scores", "SplitController", "evaluate", "hi_p95_n"]
 
@@ -148,8 +149,7 @@ class Scores:
 
     def overshoot_p95_n(self) -> np.ndarray:
         """p95 overshoot over all taking episodes, per set, N."""
-        take = np.isfinite(self.overshoot_n[0])
-        return np.percentile(self.overshoot_n[:, take], 95, axis=1) if take.any() else np.zeros(len(self.failed))
+        return taking_overshoot_p95_n(self.overshoot_n)
 
     def release_time_median_s(self) -> np.ndarray:
         """Median release time of the handed-over taking episodes, per set (s; 3.5 s, the episode's
