@@ -32,6 +32,10 @@ _INDEX: dict[str, int] = {name: i for i, name in enumerate(SKELETON_JOINTS)}
 MAX_JOINT_RANGE_M = 20.0
 #: The largest user id taken (`bus_schema.messages.Skeleton.user_id`'s bound).
 MAX_USER_ID = 65535
+#: A user whose joints are arriving but whose first frame has not completed yet holds the choice
+#: of a receiver for at most this long, s: the tracker may subscribe in the middle of a frame, and
+#: the nearest user's first frame must not lose the choice to a farther user's whole one.
+FIRST_FRAME_WAIT_S = 0.2
 
 
 @dataclass(frozen=True)
@@ -96,6 +100,7 @@ class _User:
     positions_m: np.ndarray = field(default_factory=lambda: np.zeros((len(SKELETON_JOINTS), 3)))
     emitted_ns: int = -1
     rx_s: float = -np.inf
+    first_rx_s: float = np.inf
 
 
 class SkeletonAssembler:
@@ -122,6 +127,13 @@ class SkeletonAssembler:
         user.stamps_ns[i] = sample.stamp_ns
         user.positions_m[i] = sample.position_m
         user.rx_s = max(user.rx_s, sample.rx_s)
+        user.first_rx_s = min(user.first_rx_s, sample.rx_s)
+
+    def pending(self, now_s: float, wait_s: float = FIRST_FRAME_WAIT_S) -> list[int]:
+        """Users with joints but no complete frame yet, first heard within `wait_s` (s) of
+        `now_s` (local s): who may still turn out to be the receiver."""
+        return [uid for uid, user in self._users.items()
+                if user.emitted_ns < 0 and now_s - user.first_rx_s <= wait_s]
 
     def complete(self) -> list[UserFrame]:
         """The users whose frame completed since the last call, in user-id order."""
@@ -158,7 +170,8 @@ class ReceiverChooser:
     `base`) of the transfer region's centre can be the receiver. The receiver stays the same
     user while it is seen; another user takes over when the receiver has not been seen for
     `lost_s`, or when that user is nearer the centre by more than `margin_m`. With no
-    receiver, the nearest candidate (the lower id on a tie) becomes it.
+    receiver, the nearest candidate (the lower id on a tie) becomes it, but not while a user
+    whose first frame is still arriving (`SkeletonAssembler.pending`) might be nearer.
 
     Args:
         centre_m: (3,) the transfer region's centre, m, `base`.
@@ -187,14 +200,18 @@ class ReceiverChooser:
             self.receiver = None
         return gone
 
-    def choose(self, frames: list[UserFrame], now_s: float) -> UserFrame | None:
-        """Update with this tick's complete frames; the receiver's frame, if it has a new one."""
+    def choose(self, frames: list[UserFrame], now_s: float, pending: Sequence[int] = ()) -> UserFrame | None:
+        """Update with this tick's complete frames; the receiver's frame, if it has a new one.
+        `pending`: users whose first frame is still arriving; with no receiver yet, nobody is
+        chosen while there are any (the caller bounds how long a user stays pending)."""
         for f in frames:
             self._seen[f.user] = (self.distance_m(f), f.rx_s)
         self.forgotten(now_s)
         candidates = {u: d for u, (d, _) in self._seen.items() if d <= self.max_distance_m}
         if self.receiver is not None and self.receiver not in candidates:
             self.receiver = None  # walked out of the region
+        if self.receiver is None and any(u not in self._seen for u in pending):
+            return None  # a nearer user's first frame may be half-way in
         if candidates:
             best = min(sorted(candidates), key=lambda u: candidates[u])
             if self.receiver is None or candidates[best] < candidates[self.receiver] - self.margin_m:

@@ -155,7 +155,7 @@ class Ros1KinectInputs:
         frames = self.assembler.complete()
         if frames:
             self._frame_rx_s = max(f.rx_s for f in frames)
-        chosen = self.chooser.choose(frames, now_s)
+        chosen = self.chooser.choose(frames, now_s, self.assembler.pending(now_s))
         for user in self.chooser.forgotten(now_s):
             self.assembler.forget(user)
         self.assembler.prune(now_s, self.config.user_lost_s)

@@ -166,3 +166,35 @@ def test_users_whose_frames_never_complete_are_forgotten():
     feed(assembler, wire(body_in_camera(), 500, 10**9), rx_s=1.4)
     assert assembler.prune(1.6, lost_s=0.5) == list(range(1, 200))
     assert [f.user for f in assembler.complete()] == [500]
+
+
+def test_a_half_arrived_first_frame_holds_the_first_choice_until_it_completes():
+    """The tracker may subscribe in the middle of openni_tracker's frame: the receiver's first
+    frame lacks its first joints while the bystander's is whole. The bystander must not be
+    chosen (not even for one frame) while the receiver's frame is still arriving."""
+    assembler = SkeletonAssembler(POSE, 0.015)
+    chooser = ReceiverChooser(CENTRE, max_distance_m=1.5, margin_m=0.3, lost_s=0.5)
+    receiver, bystander = body_in_camera(), body_in_camera((0.0, 0.9, 0.0))  # 0.9 m to the side
+    feed(assembler, wire(receiver, 1, 10**9)[5:], rx_s=1.0)  # the tail of user 1's frame
+    feed(assembler, wire(bystander, 2, 10**9), rx_s=1.0)
+    frames = assembler.complete()
+    assert [f.user for f in frames] == [2] and assembler.pending(1.0) == [1]
+    assert chooser.choose(frames, 1.0, assembler.pending(1.0)) is None and chooser.receiver is None
+    feed(assembler, wire(receiver, 1, 10**9 + 33_000_000), rx_s=1.033)
+    frames = assembler.complete()
+    assert [f.user for f in frames] == [1] and assembler.pending(1.033) == []
+    assert chooser.choose(frames, 1.033, assembler.pending(1.033)).user == 1
+    assert chooser.switches == 1
+
+
+def test_a_user_whose_frames_never_complete_holds_the_choice_only_briefly():
+    assembler = SkeletonAssembler(POSE, 0.015)
+    chooser = ReceiverChooser(CENTRE, max_distance_m=1.5, margin_m=0.3, lost_s=0.5)
+    feed(assembler, wire(body_in_camera(), 1, 10**9)[:14], rx_s=1.0)  # never its 15th joint
+    feed(assembler, wire(body_in_camera((0.0, 0.9, 0.0)), 2, 10**9), rx_s=1.0)
+    frames = assembler.complete()
+    assert chooser.choose(frames, 1.0, assembler.pending(1.0)) is None
+    feed(assembler, wire(body_in_camera((0.0, 0.9, 0.0)), 2, 10**9 + 300_000_000), rx_s=1.3)
+    frames = assembler.complete()
+    assert assembler.pending(1.3) == []  # user 1 waited for more than FIRST_FRAME_WAIT_S
+    assert chooser.choose(frames, 1.3, assembler.pending(1.3)).user == 2
