@@ -42,6 +42,16 @@ def _drop_weight(text: str) -> float:
     return value
 
 
+def _above_hi_weight(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+    if not 0.0 <= value <= 100.0:
+        raise argparse.ArgumentTypeError(f"{value:g} must be within 0–100 (per N above HI's p95 overshoot)")
+    return value
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """Flags of `handover-study tune`."""
     p.add_argument("--controller", required=True, choices=sorted(SPACES), help="the controller whose parameters "
@@ -64,6 +74,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--drop-weight", type=_drop_weight, default=1.0,
                    help="a dropped object counts this many failures in the objective (1–100; 1: like a refused "
                         "handover; keep it on --resume)")
+    p.add_argument("--above-hi-weight", type=_above_hi_weight, default=OBJECTIVE_WEIGHTS["above_hi_per_n"],
+                   metavar="PER_N", help="objective weight of each N of p95 overshoot above HI's on the tuning "
+                   "episodes (0–100 per N; 1 makes 1 N above HI cost as much as every episode failing; keep it "
+                   "on --resume)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
@@ -82,7 +96,8 @@ def run(args: argparse.Namespace) -> int:
                   "chunk_size": args.chunk_size, "budget": args.budget, "popsize": args.popsize,
                   "optimiser": "cma.CMAEvolutionStrategy (cma 4.5.0, unit-cube bounds, sigma0 0.25, seed 1)",
                   "objective": "failure rate + w · (p95 overshoot, median release time, p95 above HI's)",
-                  "weights": OBJECTIVE_WEIGHTS, "drop_weight": args.drop_weight,
+                  "weights": {**OBJECTIVE_WEIGHTS, "above_hi_per_n": args.above_hi_weight},
+                  "drop_weight": args.drop_weight,
                   "space": {k: list(v) for k, v in space.bounds.items()}}
     bar = tqdm(total=args.budget, unit="set", desc=f"tune {args.controller}", disable=args.quiet,
                dynamic_ncols=True)
@@ -97,7 +112,8 @@ def run(args: argparse.Namespace) -> int:
     interrupted = False
     try:
         state = run_cma(space, chunks, args.budget, out, hi, provenance, resume=args.resume, popsize=args.popsize,
-                        on_generation=progress, drop_weight=args.drop_weight)
+                        on_generation=progress, drop_weight=args.drop_weight,
+                        above_hi_per_n=args.above_hi_weight)
     except KeyboardInterrupt:
         interrupted = True
     except GripperError as exc:

@@ -159,19 +159,21 @@ class Scores:
         med = np.nanmedian(np.where(has[:, None], rel, 0.0), axis=1)
         return np.where(has, med, 3.5)
 
-    def objective(self, hi_p95_n: float, drop_weight: float = 1.0) -> np.ndarray:
+    def objective(self, hi_p95_n: float, drop_weight: float = 1.0, above_hi_per_n: float | None = None) -> np.ndarray:
         """J per set (module docstring), given HI's p95 overshoot on the same episodes (N); a drop
-        counts `drop_weight` failures (≥ 1; a drop is also a failure)."""
+        counts `drop_weight` failures (≥ 1; a drop is also a failure); `above_hi_per_n` replaces the
+        weight of each N of p95 overshoot above HI's (per N; default `OBJECTIVE_WEIGHTS`')."""
         w = OBJECTIVE_WEIGHTS
+        above = w["above_hi_per_n"] if above_hi_per_n is None else above_hi_per_n
         p95 = self.overshoot_p95_n()
         return (self.failed.mean(axis=1) + (drop_weight - 1.0) * self.dropped.mean(axis=1)
                 + w["overshoot_p95_per_n"] * p95
                 + w["release_time_per_s"] * self.release_time_median_s()
-                + w["above_hi_per_n"] * np.maximum(p95 - hi_p95_n, 0.0))
+                + above * np.maximum(p95 - hi_p95_n, 0.0))
 
-    def summary(self, i: int, hi_p95_n: float, drop_weight: float = 1.0) -> dict:
+    def summary(self, i: int, hi_p95_n: float, drop_weight: float = 1.0, above_hi_per_n: float | None = None) -> dict:
         """Figures of set i (rates in [0, 1], N, s)."""
-        return {"objective": float(self.objective(hi_p95_n, drop_weight)[i]),
+        return {"objective": float(self.objective(hi_p95_n, drop_weight, above_hi_per_n)[i]),
                 "failure_rate": float(self.failed[i].mean()),
                 "drop_rate": float(self.dropped[i].mean()), "overshoot_p95_n": float(self.overshoot_p95_n()[i]),
                 "release_time_median_s": float(self.release_time_median_s()[i]), "hi_overshoot_p95_n": hi_p95_n}

@@ -76,6 +76,9 @@ def test_objective_numbers():
     # A drop weighed 3×: the one drop (a quarter of the episodes) adds two more quarters.
     assert s.objective(hi_p95_n=30.0, drop_weight=3.0)[0] == pytest.approx(expected_under + 2 * 0.25)
     assert s.summary(0, 30.0, drop_weight=3.0)["objective"] == pytest.approx(expected_under + 0.5)
+    # A heavier weight above HI's p95: 2 N above at 1 per N adds 2 (as if every episode failed twice).
+    assert s.objective(hi_p95_n=p95 - 2.0, above_hi_per_n=1.0)[0] == pytest.approx(expected_under + 2.0)
+    assert s.objective(hi_p95_n=30.0, above_hi_per_n=1.0)[0] == pytest.approx(expected_under)  # below HI: no cost
     none = Scores(*(a.copy() for a in (s.failed, s.dropped, np.zeros_like(s.handed_over), s.overshoot_n,
                                        np.full_like(s.release_time_s, nan))))
     assert none.release_time_median_s()[0] == 3.5  # hands nothing over: the episode's length
@@ -123,3 +126,24 @@ def test_cli_drop_weight_below_one_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as exc:
         study_main(["tune", "--controller", "SG", "--drop-weight", "0.5"])
     assert exc.value.code == 2 and "within 1–100" in capsys.readouterr().err
+
+
+def test_cli_above_hi_weight_out_of_range_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        study_main(["tune", "--controller", "SG", "--above-hi-weight", "-1"])
+    assert exc.value.code == 2 and "within 0–100" in capsys.readouterr().err
+
+
+def test_cli_above_hi_weight_reaches_the_objective_and_the_provenance(tmp_path):
+    presets = tmp_path / "presets.json"
+    assert study_main(["tune", "--controller", "HI", "-n", "24", "--chunk-size", "24", "--budget", "5",
+                       "--popsize", "4", "--out", str(tmp_path / "hi.json"), "--write-preset", "HI-y",
+                       "--presets-file", str(presets), "--above-hi-weight", "2.5", "--quiet"]) == 0
+    doc = json.loads((tmp_path / "hi.json").read_text())
+    assert doc["provenance"]["weights"]["above_hi_per_n"] == 2.5
+    best = doc["best_rerun"]
+    over = max(best["overshoot_p95_n"] - best["hi_overshoot_p95_n"], 0.0)
+    w = OBJECTIVE_WEIGHTS
+    expected = (best["failure_rate"] + w["overshoot_p95_per_n"] * best["overshoot_p95_n"]
+                + w["release_time_per_s"] * best["release_time_median_s"] + 2.5 * over)
+    assert best["objective"] == pytest.approx(expected)
