@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from handover_model import robots
 from services.runtime.cli import (HelpFormatter, bounded_int, bounded_seconds, one_line_parser, positive_int,
                                   run_subcommand)
 from services.studies.evaluation.errors import EvaluationError
@@ -51,6 +52,9 @@ def _add_run(sub: Any) -> None:
     p.add_argument("--profile", default=None,
                    help="base deploy profile, a name under deploy/ or a TOML path (default sim; fixed by a resumed "
                         "run)")
+    p.add_argument("--robot", choices=sorted(robots.BUILTIN), default=None,
+                   help="the arm of every episode, with its built-in description (default: the base profile's "
+                        "[robot] model; fixed by a resumed run); docs/robots.md")
     p.add_argument("--workers", type=positive_int, default=None,
                    help=f"episodes at once on this machine (default {DEFAULT_WORKERS}: one whole stack per two "
                         "cores); not with --address")
@@ -111,7 +115,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     options = RunOptions(out=out, episodes=args.episodes, seed=args.seed, profile=args.profile,
                          workers=args.workers if args.address else (args.workers or DEFAULT_WORKERS),
                          address=args.address, timeout_s=args.timeout_s, resume=args.resume,
-                         show_progress=not args.no_progress, clock=args.clock)
+                         show_progress=not args.no_progress, clock=args.clock, robot=args.robot)
     report, headline = run_evaluation(options)
     for line in headline:
         print(line)

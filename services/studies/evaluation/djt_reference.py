@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from handover_model import scene
+from handover_model.robots import RobotDescription
 from robot_sim.kinect.receiver import KNEE_HEIGHT_RATIO, BodySize
 from services.planner.anthropometrics import BodyDimensions
 from services.planner.config import load_config
@@ -35,12 +36,15 @@ def true_receiver(draw: EpisodeDraw, use_measured_shoulder_height: bool = True) 
     return ReceiverInput(body=body, shoulder_x_task_m=shoulder_x_task_m, shoulder_height_m=shoulder)
 
 
-def djt_optimum_base_m(draw: EpisodeDraw, planner_config: dict[str, Any]) -> np.ndarray | None:
+def djt_optimum_base_m(draw: EpisodeDraw, planner_config: dict[str, Any],
+                       robot: RobotDescription | None = None) -> np.ndarray | None:
     """The DJT transfer point (`base`, m) for the true receiver and object of `draw`, with the
     planner configuration `planner_config` (the profile's ``[services.planner.config]``); None
     when no point is reachable by both the robot and that receiver (a receiver drawn too far or
-    too small for the scene: the episode has no reference, its transfer-point error is n/a)."""
-    cfg = load_config(planner_config)
+    too small for the scene: the episode has no reference, its transfer-point error is n/a).
+    `robot`: the episode's arm, whose giver stand-in and reach start the planner uses (as the
+    planner service does with `handover_model.robots.active()`); None: Baxter's."""
+    cfg = load_config(planner_config, robot)
     receiver = true_receiver(draw, cfg.model.use_measured_shoulder_height)
     try:
         plan = plan_for_receiver(cfg, receiver, draw.object_mass_kg)

@@ -53,9 +53,13 @@ def read_base_profile(profile: str | Path) -> tuple[Path, dict[str, Any]]:
     return path, table
 
 
-def episode_table(base: dict[str, Any], draw: EpisodeDraw) -> dict[str, Any]:
-    """The base profile's table with `draw` written in (the base is not changed)."""
+def episode_table(base: dict[str, Any], draw: EpisodeDraw, robot: str | None = None) -> dict[str, Any]:
+    """The base profile's table with `draw` written in (the base is not changed); with `robot`,
+    the arm of that name with its built-in description (the base's ``[robot]`` table replaced,
+    as `handover-up --robot` does)."""
     table = copy.deepcopy(base)
+    if robot is not None:
+        table["robot"] = {"model": robot}
     services = table["services"]
     contact = services["bridge"]["config"]["contact"]
     contact.update({
@@ -76,7 +80,7 @@ def episode_table(base: dict[str, Any], draw: EpisodeDraw) -> dict[str, Any]:
     return table
 
 
-def write_episode_profile(base: dict[str, Any], draw: EpisodeDraw, path: Path) -> Path:
+def write_episode_profile(base: dict[str, Any], draw: EpisodeDraw, path: Path, robot: str | None = None) -> Path:
     """Write the episode's profile to `path` and check it loads; the path.
 
     Raises:
@@ -84,7 +88,7 @@ def write_episode_profile(base: dict[str, Any], draw: EpisodeDraw, path: Path) -
     """
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(f"# Episode {draw.episode} of an evaluation run (services.studies.evaluation): "
-                    "the base profile with the episode's draw.\n" + tomli_w.dumps(episode_table(base, draw)))
+                    "the base profile with the episode's draw.\n" + tomli_w.dumps(episode_table(base, draw, robot)))
     try:
         load_profile_file(path)
     except Exception as exc:  # noqa: BLE001 - the launcher's own loader says what is wrong

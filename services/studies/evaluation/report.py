@@ -76,7 +76,8 @@ def render(run_dir: Path, manifest: dict[str, Any], figures: dict[str, Any], plo
     """The report's markdown."""
     f = figures
     lines = [f"# Evaluation: {f['episodes']} episodes", "",
-             f"Run `{run_dir}`, population seed {manifest['seed']}, profile `{manifest['profile']}`, "
+             f"Run `{run_dir}`, population seed {manifest['seed']}, profile `{manifest['profile']}`"
+             + (f", arm {manifest['robot']} (`--robot`)" if manifest.get("robot") else "") + ", "
              f"wall time {manifest.get('wall_s', 0.0) / 60:.1f} min with {manifest.get('workers', '?')} worker(s). "
              "Intervals: 95 % (Wilson for rates, order statistics for medians and p95).", "",
              "## Headline", "",

@@ -39,6 +39,7 @@ class RunOptions:
     resume: bool
     show_progress: bool = True
     clock: str | None = None
+    robot: str | None = None
 
 
 def read_manifest(run_dir: Path) -> dict[str, Any]:
@@ -59,9 +60,10 @@ def _manifest(options: RunOptions) -> dict[str, Any]:
     out = options.out
     if options.resume:
         manifest = read_manifest(out)
-        for name in ("seed", "profile", "clock"):
+        for name in ("seed", "profile", "clock", "robot"):
             given = getattr(options, name)
-            kept = str(manifest.get(name, "wall"))  # a run from before --clock ran on the wall clock
+            # A run from before --clock ran on the wall clock; one from before --robot, the profile's arm.
+            kept = str(manifest.get(name, "wall" if name == "clock" else None))
             if name == "profile" and given is not None:  # the manifest keeps the resolved path
                 given = str(read_base_profile(given)[0].resolve())
             if given is not None and str(given) != kept:
@@ -79,6 +81,7 @@ def _manifest(options: RunOptions) -> dict[str, Any]:
     path, _table = read_base_profile(options.profile or "sim")
     return {"seed": 0 if options.seed is None else options.seed, "episodes": options.episodes,
             "profile": str(path.resolve()), "timeout_s": options.timeout_s, "clock": options.clock or "sim",
+            "robot": options.robot,
             "created": time.strftime("%Y-%m-%d %H:%M:%S"), "wall_s": 0.0}
 
 
@@ -108,7 +111,8 @@ def run_evaluation(options: RunOptions) -> tuple[Path, list[str]]:
     manifest.update(workers=options.workers if options.address is None else f"cluster {options.address}")
     write_json(run_dir / MANIFEST, manifest)
     tasks = [EpisodeTask(str(run_dir.resolve()), k, int(manifest["seed"]), manifest["profile"],
-                         float(manifest.get("timeout_s", options.timeout_s)), str(manifest.get("clock", "wall")))
+                         float(manifest.get("timeout_s", options.timeout_s)), str(manifest.get("clock", "wall")),
+                         manifest.get("robot"))
              for k in range(manifest["episodes"])]
     t0 = time.monotonic()
     try:

@@ -28,9 +28,11 @@ from pathlib import Path
 from typing import Any
 
 from services.launcher.logins import logins_dir
+from handover_model import robots
+from handover_model.robots import RobotDescription
 from services.runtime.profile import REPO_ROOT
 from services.studies.evaluation.djt_reference import djt_optimum_base_m
-from services.studies.evaluation.episode_profile import read_base_profile, write_episode_profile
+from services.studies.evaluation.episode_profile import episode_table, read_base_profile, write_episode_profile
 from services.studies.evaluation.errors import EvaluationError
 from services.studies.evaluation.population import EpisodeDraw, draw_episode
 from services.studies.evaluation.record import NO_SUMMARY, episode_record
@@ -55,6 +57,8 @@ class EpisodeTask:
         timeout_s: the episode's stack is stopped after this long, s.
         clock: the stack's clock, ``sim`` (the simulation's: as fast as the machine allows,
             the same episode for the same seed) or ``wall``.
+        robot: the arm (`handover_model.robots.BUILTIN` name) written into every episode's
+            profile; None: the base profile's.
     """
 
     run_dir: str
@@ -63,6 +67,7 @@ class EpisodeTask:
     base_profile: str
     timeout_s: float = 240.0
     clock: str = "sim"
+    robot: str | None = None
 
 
 def episode_dir(run_dir: Path, episode: int) -> Path:
@@ -154,10 +159,12 @@ def read_record(run_dir: Path, episode: int) -> dict[str, Any] | None:
 
 
 def run_and_record(folder: Path, profile: Path, draw: EpisodeDraw, planner_config: dict[str, Any],
-                   timeout_s: float, clock: str = "sim", keep_fds: tuple[int, ...] = ()) -> dict[str, Any]:
+                   timeout_s: float, clock: str = "sim", keep_fds: tuple[int, ...] = (),
+                   robot: RobotDescription | None = None) -> dict[str, Any]:
     """Run the stack of `profile` (the episode of `draw`) with its output in `folder`; the
     record read from its recording (``record.json`` is written by the caller). `keep_fds`:
-    descriptors the launcher inherits (the episode's lock)."""
+    descriptors the launcher inherits (the episode's lock); `robot`: the profile's arm (the DJT
+    reference's giver; None: Baxter's)."""
     t0 = time.monotonic()
     command = launcher_command(profile, folder, draw.episode, clock)
     code, timed_out = run_stack(command, folder / "console.txt", timeout_s, keep_fds)
@@ -168,7 +175,7 @@ def run_and_record(folder: Path, profile: Path, draw: EpisodeDraw, planner_confi
     except EvaluationError as exc:
         record = _stack_error_record(draw, code, wall_s, f"{exc} (see {folder / 'console.txt'})")
     else:
-        record = episode_record(draw, rec, djt_optimum_base_m(draw, planner_config), code, wall_s)
+        record = episode_record(draw, rec, djt_optimum_base_m(draw, planner_config, robot), code, wall_s)
         if record["outcome"] == NO_SUMMARY:
             record["reason"] = ("timed out" if timed_out else f"launcher exit {code}") + \
                 f": no episode summary (see {folder / 'console.txt'})"
@@ -200,7 +207,9 @@ def run_episode(task: EpisodeTask) -> dict[str, Any]:
         shutil.rmtree(logins_dir(folder, run_id(task.episode)), ignore_errors=True)
         _base_path, base = read_base_profile(task.base_profile)
         draw = draw_episode(task.run_seed, task.episode)
-        profile = write_episode_profile(base, draw, folder / "profile.toml")
-        record = run_and_record(folder, profile, draw, planner_config(base), task.timeout_s, task.clock, (lock_fd,))
+        profile = write_episode_profile(base, draw, folder / "profile.toml", task.robot)
+        arm = robots.from_profile(episode_table(base, draw, task.robot), str(profile))
+        record = run_and_record(folder, profile, draw, planner_config(base), task.timeout_s, task.clock, (lock_fd,),
+                                arm)
         write_json(folder / "record.json", record)
     return record

@@ -118,6 +118,7 @@ def run_cma(space: ParamSpace, chunks: Chunks, budget: int, out: Path, hi_p95_n:
             on_generation(state)
     # Inside a generation each set sees its own sensor-noise draw (the plant draws noise per batch
     # position), so the best's figures are re-run alone, with the chunks' own noise, at the end.
-    state.best_rerun = evaluate(chunks, space.controller, [state.best_params]).summary(0, hi_p95_n, drop_weight, above_hi_per_n)
+    alone = evaluate(chunks, space.controller, [state.best_params])
+    state.best_rerun = alone.summary(0, hi_p95_n, drop_weight, above_hi_per_n)
     _write_json(out, state.to_json(provenance))
     return state
