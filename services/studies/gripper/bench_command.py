@@ -90,7 +90,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--img-dir", type=Path, default=None, help="also write the plots here (e.g. docs/img)")
     p.add_argument("--attribute", action="store_true",
                    help="also run the max-hold and reactive-max-hold references and attribute every drop "
-                        "(unavoidable, actuator-limited, receiver let go, controller); paired overshoot vs SG")
+                        "(unavoidable, actuator-limited, receiver let go, controller); paired overshoot, with "
+                        "bootstrap intervals, against --against")
+    p.add_argument("--against", default=None, metavar="NAME",
+                   help="the controller the paired tests compare every other one with: McNemar on the drops, and "
+                        "with --attribute the paired overshoot (one of --controllers; default SG, when it runs)")
     p.add_argument("--set", dest="overrides", type=_override, action="append", default=[],
                    metavar="CONTROLLER:PARAM=VALUE",
                    help="override one parameter of one controller (repeatable), e.g. SG:hold_per_weight=5")
@@ -101,17 +105,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_engine_arguments(p)
 
 
-def _paired_drop_tests(result) -> list[dict]:
-    """McNemar's exact test of SG against every other controller (printed), if SG ran."""
+def _paired_drop_tests(result, against: str = "SG") -> list[dict]:
+    """McNemar's exact test of `against` and every other controller (printed), if `against` ran."""
     tests = []
-    if "SG" in result.outcomes:
+    if against in result.outcomes:
         for other in result.outcomes:
-            if other != "SG" and other not in REFERENCES:
-                t = paired_drop_test(result, "SG", other)
+            if other != against and other not in REFERENCES:
+                t = paired_drop_test(result, against, other)
                 tests.append(t)
                 p_text = f"= {t['p_value']:.2g}" if t["p_value"] > 0 else "< 1e-300"  # below the double range
-                print(f"paired drops SG vs {other}: SG-only {t['only_a_drops']}, {other}-only {t['only_b_drops']}, "
-                      f"McNemar exact p {p_text}")
+                print(f"paired drops {against} vs {other}: {against}-only {t['only_a_drops']}, {other}-only "
+                      f"{t['only_b_drops']}, McNemar exact p {p_text}")
     return tests
 
 
@@ -132,6 +136,9 @@ def run(args: argparse.Namespace) -> int:
     for name, key, value in args.overrides:
         overrides.setdefault(name, {})[key] = value
     try:
+        if args.against is not None and args.against not in args.controllers:
+            raise GripperError(f"--against {args.against} is not in --controllers {args.controllers}")
+        args.against = args.against or "SG"
         unknown = sorted(set(overrides) - set(args.controllers))
         if unknown:
             raise GripperError(f"--set names controller(s) {unknown} that are not in --controllers {args.controllers}")
@@ -157,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"\n{args.episodes} episodes per controller, population {args.population}{grippers}, seed {args.seed}, "
           f"{result.wall_time_s:.1f} s\n")
     print(table)
-    tests = _paired_drop_tests(result)
+    tests = _paired_drop_tests(result, args.against)
     args.out.mkdir(parents=True, exist_ok=True)
     if args.attribute:
         att = drop_attribution(result)
@@ -165,11 +172,11 @@ def run(args: argparse.Namespace) -> int:
         print("\nWho dropped it (% of all episodes; see services/studies/gripper/attribution.py)\n")
         print(att_table)
         (args.out / "attribution.md").write_text(att_table + "\n")
-        if "SG" in result.outcomes:
+        if args.against in result.outcomes:
             print("\nForce overshoot on the taking episodes both handed over (N):")
-            for r in paired_overshoot_rows(result):
+            for r in paired_overshoot_rows(result, args.against):
                 if r.get("episodes"):
-                    print(f"SG vs {r['other']}: {r['episodes']} episodes, median {r['a_median_n']:.2f} vs "
+                    print(f"{args.against} vs {r['other']}: {r['episodes']} episodes, median {r['a_median_n']:.2f} vs "
                           f"{r['b_median_n']:.2f}, p95 {r['a_p95_n']:.2f} vs {r['b_p95_n']:.2f}, "
                           f"median paired difference {r['median_difference_n']:+.2f}")
                     for label, what in (("handed_over", "both handed over"), ("all_taking", "all taking")):
@@ -177,11 +184,13 @@ def run(args: argparse.Namespace) -> int:
                         for stat in ("median", "p95"):
                             lo, hi = r[f"{stat}_diff_{label}_ci_n"]
                             cells.append(f"{stat} {r[f'{stat}_diff_{label}_n']:+.2f} [{lo:+.2f}, {hi:+.2f}]")
-                        print(f"    SG − {r['other']} on {what}: " + ", ".join(cells) + " N (paired bootstrap 95 % CI)")
-    if args.attribute and "SG" in result.outcomes:
+                        print(f"    {args.against} − {r['other']} on {what}: " + ", ".join(cells)
+                              + " N (paired bootstrap 95 % CI)")
+    if args.attribute and args.against in result.outcomes:
         with (args.out / "paired_overshoot.csv").open("w", newline="") as fh:
-            flat = [{k: (f"{v[0]:.4f};{v[1]:.4f}" if isinstance(v, tuple) else v) for k, v in r.items()}
-                    for r in paired_overshoot_rows(result) if r.get("episodes")]
+            flat = [{"against": args.against, **{k: (f"{v[0]:.4f};{v[1]:.4f}" if isinstance(v, tuple) else v)
+                                                 for k, v in r.items()}}
+                    for r in paired_overshoot_rows(result, args.against) if r.get("episodes")]
             if flat:
                 w = csv.DictWriter(fh, fieldnames=list(flat[0]))
                 w.writeheader()

@@ -112,3 +112,21 @@ def test_cli_set_overrides_one_controller_and_refuses_bad_ones(tmp_path, capsys)
     assert "not in --controllers" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         study_main(["bench", "--controllers", "SG", *common, "--set", "SG:share_cap"])
+
+
+def test_cli_against_makes_the_paired_tests_compare_with_that_controller(tmp_path, capsys):
+    common = ["-n", "48", "--chunk-size", "48", "--workers", "1", "--no-plots", "--no-progress", "--seed", "5",
+              "--population", "narrow", "--no-oracle"]
+    assert study_main(["bench", "--controllers", "FS1", "HI", "SG", *common, "--attribute", "--against", "HI",
+                       "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "paired drops HI vs FS1" in out and "paired drops HI vs SG" in out and "paired drops SG vs" not in out
+    assert "HI − SG on all taking: median" in out and "paired bootstrap 95 % CI" in out
+    rows = (tmp_path / "paired_overshoot.csv").read_text().splitlines()
+    assert rows[0].startswith("against,other,episodes") and {r.split(",")[1] for r in rows[1:]} == {"FS1", "SG"}
+    assert all(r.split(",")[0] == "HI" for r in rows[1:])
+    assert study_main(["bench", "--controllers", "FS1", "HI", *common, "--against", "SG", "--out", str(tmp_path)]) == 2
+    assert "--against SG is not in --controllers" in capsys.readouterr().err
+    # Without SG and without --against, no paired tests and no error (as before the option).
+    assert study_main(["bench", "--controllers", "FS1", "HI", *common, "--out", str(tmp_path / "b")]) == 0
+    assert "paired drops" not in capsys.readouterr().out
