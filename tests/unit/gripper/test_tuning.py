@@ -147,3 +147,17 @@ def test_cli_above_hi_weight_reaches_the_objective_and_the_provenance(tmp_path):
     expected = (best["failure_rate"] + w["overshoot_p95_per_n"] * best["overshoot_p95_n"]
                 + w["release_time_per_s"] * best["release_time_median_s"] + 2.5 * over)
     assert best["objective"] == pytest.approx(expected)
+
+
+def test_cli_p95_margin_moves_the_hinge_below_his_p95(tmp_path, capsys):
+    common = ["tune", "--controller", "HI", "-n", "24", "--chunk-size", "24", "--budget", "5", "--popsize", "4",
+              "--quiet"]
+    assert study_main([*common, "--out", str(tmp_path / "a.json")]) == 0
+    assert study_main([*common, "--out", str(tmp_path / "b.json"), "--p95-margin", "2.5"]) == 0
+    a, b = (json.loads((tmp_path / f).read_text()) for f in ("a.json", "b.json"))
+    assert b["provenance"]["p95_margin_n"] == 2.5
+    assert b["start"]["hi_overshoot_p95_n"] == pytest.approx(a["start"]["hi_overshoot_p95_n"] - 2.5)
+    assert "HI's p95 − 2.5 N" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:
+        study_main([*common, "--p95-margin", "25"])
+    assert exc.value.code == 2
