@@ -102,8 +102,8 @@ def doc_region(result: LoopResult, rows: list[PlantStats], flip_rows: list[Flips
         "Verdict flips between the plants, per receiver kind: ours-only drops / MuJoCo-only drops / handover "
         "flips (episodes):", "", flips_table(flip_rows), "",
         "McNemar exact tests of paired drops:", "", *[f"- {line}" for line in mcnemar_lines(tests)], "",
-        "Flipping episodes (index in the run; replay with `--replay INDEX`): "
-        + ("none." if not flips_list else ""), *[f"- {line}" for line in flips_list]])
+        "Flipping episodes (index in the run; replay with `--replay INDEX`):" + (" none." if not flips_list else ""),
+        *[f"- {line}" for line in flips_list]])
 
 
 def write_csv(rows: list[PlantStats], path: Path) -> Path:
