@@ -12,6 +12,7 @@
     handover-study evaluate    the tracker's hand error against the simulator's truth
     handover-study tracker-defaults  the tracker configuration to ship, chosen and confirmed on other seeds
     handover-study crosscheck  the contact plant against MuJoCo, scenario by scenario
+    handover-study crosscheck-loop  the release controllers closed-loop on both plants
 
 None of them needs the bus or a running stack. Exit codes: 0 done, 1 a failure while running,
 2 bad input (one line on stderr).
@@ -32,8 +33,8 @@ PROG = "handover-study"
 def _commands() -> list[tuple[str, str, Callable[[argparse.ArgumentParser], None], Callable]]:
     """(name, description, add_arguments, run) of every study command."""
     from services.studies import crosscheck_command, figures_command
-    from services.studies.gripper import (analysis_command, bench_command, intent_command, oracle_command,
-                                          reproduce_command, tune_command)
+    from services.studies.gripper import (analysis_command, bench_command, intent_command, mujoco_loop_command,
+                                          oracle_command, reproduce_command, tune_command)
     from services.studies.planner import experiment_command
     from services.studies.tracker import commands as tracker
 
@@ -41,7 +42,7 @@ def _commands() -> list[tuple[str, str, Callable[[argparse.ArgumentParser], None
         ("bench", bench_command), ("oracle-tune", oracle_command), ("tune", tune_command), ("intent", intent_command),
         ("reproduce", reproduce_command),
         ("failsafe", analysis_command), ("figures", figures_command), ("experiment", experiment_command),
-        ("crosscheck", crosscheck_command),
+        ("crosscheck", crosscheck_command), ("crosscheck-loop", mujoco_loop_command),
     ]
     table = [(name, module.DESCRIPTION, module.add_arguments, module.run) for name, module in modules]
     table.append(("record", tracker.RECORD_DESCRIPTION, tracker.add_record_arguments, tracker.run_record))

@@ -166,6 +166,7 @@ class MujocoPinch:
         self._hq = (m.jnt_qposadr[m.joint("hand_x").id], m.jnt_qposadr[m.joint("hand_z").id])
         self._hv = (m.jnt_dofadr[m.joint("hand_x").id], m.jnt_dofadr[m.joint("hand_z").id])
         self._hand_start = hand_start_m
+        self._pad_dofs = [int(m.jnt_dofadr[m.joint(n).id]) for n in ("pad_l", "pad_r")]
         mujoco.mj_forward(m, self.data)
 
     # ------------------------------------------------------------------ stepping
@@ -236,6 +237,21 @@ class MujocoPinch:
             normal += f6[0]
             tangential += f6[1] * frame[1] + f6[2] * frame[2]
         return normal, float(np.hypot(tangential[0], tangential[2]))
+
+    def pad_load_n(self) -> tuple[float, float]:
+        """Load the box puts on the pads during the last step (N, our frame: x, y down): minus
+        the pads' summed force on the box in the plane of the pull, read from MuJoCo's
+        constraint forces on the box's x and z degrees of freedom (the pad contacts are the
+        only constraints on them). At rest under gravity alone it is (0, M g)."""
+        f = self.data.qfrc_constraint
+        return -float(f[self._vx]), float(f[self._vz])
+
+    def pad_press_n(self) -> float:
+        """How hard the pads press on the box during the last step (N, the mean of both
+        pads' normal forces): minus the constraint force on each pad's slide joint. F_G at
+        rest; 0 once the pads no longer touch (or only touch) the box."""
+        f = self.data.qfrc_constraint
+        return -0.5 * (float(f[self._pad_dofs[0]]) + float(f[self._pad_dofs[1]]))
 
     def box_rotation_rad(self) -> float:
         """Rotation of the box about the grip axis (rad; 0 unless `free_rotation`)."""
