@@ -119,6 +119,30 @@ def _paired_drop_tests(result, against: str = "SG") -> list[dict]:
     return tests
 
 
+def _paired_overshoot(result, against: str, csv_path: Path) -> None:
+    """Print the paired overshoot of `against` and every other controller (bootstrap CIs) and
+    write it to `csv_path`."""
+    rows = [r for r in paired_overshoot_rows(result, against) if r.get("episodes")]
+    print("\nForce overshoot on the taking episodes both handed over (N):")
+    for r in rows:
+        print(f"{against} vs {r['other']}: {r['episodes']} episodes, median {r['a_median_n']:.2f} vs "
+              f"{r['b_median_n']:.2f}, p95 {r['a_p95_n']:.2f} vs {r['b_p95_n']:.2f}, "
+              f"median paired difference {r['median_difference_n']:+.2f}")
+        for label, what in (("handed_over", "both handed over"), ("all_taking", "all taking")):
+            cells = []
+            for stat in ("median", "p95"):
+                lo, hi = r[f"{stat}_diff_{label}_ci_n"]
+                cells.append(f"{stat} {r[f'{stat}_diff_{label}_n']:+.2f} [{lo:+.2f}, {hi:+.2f}]")
+            print(f"    {against} − {r['other']} on {what}: " + ", ".join(cells) + " N (paired bootstrap 95 % CI)")
+    flat = [{"against": against, **{k: (f"{v[0]:.4f};{v[1]:.4f}" if isinstance(v, tuple) else v)
+                                    for k, v in r.items()}} for r in rows]
+    with csv_path.open("w", newline="") as fh:
+        if flat:
+            w = csv.DictWriter(fh, fieldnames=list(flat[0]))
+            w.writeheader()
+            w.writerows(flat)
+
+
 def _by_gripper(result, n_controllers: int) -> str:
     """The per-gripper table and paired tests when the run had more than one gripper class."""
     per_gripper = per_gripper_stats(result)
@@ -173,28 +197,7 @@ def run(args: argparse.Namespace) -> int:
         print(att_table)
         (args.out / "attribution.md").write_text(att_table + "\n")
         if args.against in result.outcomes:
-            print("\nForce overshoot on the taking episodes both handed over (N):")
-            for r in paired_overshoot_rows(result, args.against):
-                if r.get("episodes"):
-                    print(f"{args.against} vs {r['other']}: {r['episodes']} episodes, median {r['a_median_n']:.2f} vs "
-                          f"{r['b_median_n']:.2f}, p95 {r['a_p95_n']:.2f} vs {r['b_p95_n']:.2f}, "
-                          f"median paired difference {r['median_difference_n']:+.2f}")
-                    for label, what in (("handed_over", "both handed over"), ("all_taking", "all taking")):
-                        cells = []
-                        for stat in ("median", "p95"):
-                            lo, hi = r[f"{stat}_diff_{label}_ci_n"]
-                            cells.append(f"{stat} {r[f'{stat}_diff_{label}_n']:+.2f} [{lo:+.2f}, {hi:+.2f}]")
-                        print(f"    {args.against} − {r['other']} on {what}: " + ", ".join(cells)
-                              + " N (paired bootstrap 95 % CI)")
-    if args.attribute and args.against in result.outcomes:
-        with (args.out / "paired_overshoot.csv").open("w", newline="") as fh:
-            flat = [{"against": args.against, **{k: (f"{v[0]:.4f};{v[1]:.4f}" if isinstance(v, tuple) else v)
-                                                 for k, v in r.items()}}
-                    for r in paired_overshoot_rows(result, args.against) if r.get("episodes")]
-            if flat:
-                w = csv.DictWriter(fh, fieldnames=list(flat[0]))
-                w.writeheader()
-                w.writerows(flat)
+            _paired_overshoot(result, args.against, args.out / "paired_overshoot.csv")
     (args.out / "table.md").write_text(table + "\n")
     print(f"\nwrote {args.out / 'table.md'}")
     print(f"wrote {write_csv(rows, args.out / 'results.csv')}")
