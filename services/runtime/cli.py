@@ -152,19 +152,25 @@ def bounded_int(low: int, high: int | None = None) -> Callable[[str], int]:
     return parse
 
 
-def bounded_seconds(low_s: float, high_s: float) -> Callable[[str], float]:
-    """An argparse type: a duration in seconds within [`low_s`, `high_s`]; a one-line usage
-    error otherwise."""
+def bounded_float(low: float, high: float, unit: str = "") -> Callable[[str], float]:
+    """An argparse type: a number within [`low`, `high`] (`unit`, e.g. " N", is printed after
+    the numbers); a one-line usage error otherwise."""
     def parse(text: str) -> float:
         try:
             value = float(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r} is not a number of seconds") from None
-        if not low_s <= value <= high_s:
-            raise argparse.ArgumentTypeError(f"{value:g} s must be within {low_s:g}–{high_s:g} s")
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
+        if not low <= value <= high:  # NaN fails too
+            raise argparse.ArgumentTypeError(f"{value:g}{unit} must be within {low:g}–{high:g}{unit}")
         return value
 
     return parse
+
+
+def bounded_seconds(low_s: float, high_s: float) -> Callable[[str], float]:
+    """An argparse type: a duration in seconds within [`low_s`, `high_s`]; a one-line usage
+    error otherwise."""
+    return bounded_float(low_s, high_s, " s")
 
 
 #: An argparse type: a whole number >= 1.

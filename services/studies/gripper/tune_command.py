@@ -22,7 +22,7 @@ from tqdm import tqdm
 
 from services.gripper.controllers.tuned import PRESETS_PATH, save_preset
 from services.gripper.errors import GripperError
-from services.runtime.cli import positive_int
+from services.runtime.cli import bounded_float, positive_int
 from services.studies.gripper.benchmark import TUNING_SEED
 from services.studies.gripper.oracle_family import bench_chunks
 from services.studies.gripper.populations import DEFAULT_POPULATION, POPULATIONS
@@ -30,36 +30,6 @@ from services.studies.gripper.tune_cma import run_cma, state_path
 from services.studies.gripper.tuning import OBJECTIVE_WEIGHTS, SPACES, hi_p95_n
 
 DESCRIPTION = "Tune a release controller's parameters with CMA-ES on the tuning seed; write the best as a preset."
-
-
-def _drop_weight(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not 1.0 <= value <= 100.0:
-        raise argparse.ArgumentTypeError(f"{value:g} must be within 1–100 (a drop is at least one failure)")
-    return value
-
-
-def _above_hi_weight(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not 0.0 <= value <= 100.0:
-        raise argparse.ArgumentTypeError(f"{value:g} must be within 0–100 (per N above HI's p95 overshoot)")
-    return value
-
-
-def _p95_margin(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number") from None
-    if not 0.0 <= value <= 20.0:
-        raise argparse.ArgumentTypeError(f"{value:g} must be within 0–20 N")
-    return value
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -81,14 +51,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--write-preset", metavar="NAME", default=None, help="store the best parameters as controller "
                    f"preset NAME in {PRESETS_PATH.name} (e.g. SG-tuned)")
     p.add_argument("--presets-file", type=Path, default=PRESETS_PATH, help="the presets file --write-preset writes")
-    p.add_argument("--drop-weight", type=_drop_weight, default=1.0,
+    p.add_argument("--drop-weight", type=bounded_float(1.0, 100.0), default=1.0,
                    help="a dropped object counts this many failures in the objective (1–100; 1: like a refused "
                         "handover; keep it on --resume)")
-    p.add_argument("--above-hi-weight", type=_above_hi_weight, default=OBJECTIVE_WEIGHTS["above_hi_per_n"],
+    p.add_argument("--above-hi-weight", type=bounded_float(0.0, 100.0), default=OBJECTIVE_WEIGHTS["above_hi_per_n"],
                    metavar="PER_N", help="objective weight of each N of p95 overshoot above HI's on the tuning "
                    "episodes (0–100 per N; 1 makes 1 N above HI cost as much as every episode failing; keep it "
                    "on --resume)")
-    p.add_argument("--p95-margin", type=_p95_margin, default=0.0, metavar="N",
+    p.add_argument("--p95-margin", type=bounded_float(0.0, 20.0, " N"), default=0.0, metavar="N",
                    help="the objective's p95 hinge starts this far below HI's p95 overshoot on the tuning episodes "
                         "(0–20 N): room for the spread of a p95 on held-out seeds; keep it on --resume")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
