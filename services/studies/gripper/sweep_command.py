@@ -24,6 +24,7 @@ from services.gripper.errors import GripperError
 from services.runtime.cli import positive_int
 from services.studies.engine_cli import add_engine_arguments, engine_options
 from services.studies.gripper.benchmark import TUNING_SEED
+from services.studies.gripper.episodes import GRIPPER_CLASSES
 from services.studies.gripper.populations import DEFAULT_POPULATION, POPULATIONS, population
 from services.studies.gripper.sweep import run_sweep
 from services.studies.gripper.sweep_grid import grid_points, parse_axis
@@ -46,6 +47,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help=f"episode seed (the tuned presets were tuned on seed {TUNING_SEED}: sweep on others)")
     p.add_argument("--population", choices=sorted(POPULATIONS), default=DEFAULT_POPULATION,
                    help="episode distribution (services/studies/gripper/populations.py)")
+    p.add_argument("--grippers", nargs="+", choices=list(GRIPPER_CLASSES), default=None, metavar="CLASS",
+                   help=f"gripper classes instead of the population's, equal shares ({', '.join(GRIPPER_CLASSES)})")
     p.add_argument("--chunk-size", type=positive_int, default=1000,
                    help="episodes per vectorised chunk (one engine task = one grid point × one chunk)")
     p.add_argument("--references", nargs="*", default=["HI"], choices=CONTROLLER_NAMES, metavar="NAME",
@@ -65,6 +68,16 @@ def _plot_name(controller: str, names: list[str]) -> str:
     return f"sweep_{controller}_{'_x_'.join(names)}.png".replace("/", "-")
 
 
+def _command_line(args: argparse.Namespace) -> str:
+    """The command that reproduces the sweep's figures (for the docs region's marker)."""
+    words = ["handover-study sweep", f"--controller {args.controller}", *(f"--param {s}" for s in args.param),
+             f"-n {args.episodes}", f"--seed {args.seed}", f"--population {args.population}"]
+    if args.grippers:
+        words.append("--grippers " + " ".join(args.grippers))
+    words += [f"--chunk-size {args.chunk_size}", "--references " + " ".join(args.references), f"--doc {args.doc}"]
+    return " ".join(words)
+
+
 def run(args: argparse.Namespace) -> int:
     """Check the grid, run the sweep and write its reports; exit code (2 on bad input)."""
     try:
@@ -72,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         points = grid_points(args.controller, axes)
         if args.doc is not None:
             check_region(args.doc)
-        dist = population(args.population)
+        dist = population(args.population, args.grippers)
     except GripperError as exc:
         print(f"handover-study sweep: error: {exc}", file=sys.stderr)
         return 2
@@ -107,9 +120,7 @@ def run(args: argparse.Namespace) -> int:
                 f"higher than HI's.\n\n{table}\n")
         if image is not None:
             body += f"\n![sweep]({os.path.relpath(image, args.doc.parent)})\n"
-        command = f"handover-study sweep --controller {args.controller} " + " ".join(
-            f"--param {s}" for s in args.param) + f" -n {args.episodes} --seed {args.seed} --doc {args.doc}"
-        written.append(rewrite_region(args.doc, body, command))
+        written.append(rewrite_region(args.doc, body, _command_line(args)))
     for path in written:
         print(f"wrote {path}")
     return 0

@@ -14,6 +14,7 @@ benchmark and the gripper service can run by name (`handover-study bench --contr
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from pathlib import Path
@@ -27,7 +28,9 @@ from services.studies.gripper.benchmark import TUNING_SEED
 from services.studies.gripper.oracle_family import bench_chunks
 from services.studies.gripper.populations import DEFAULT_POPULATION, POPULATIONS
 from services.studies.gripper.tune_cma import run_cma, state_path
-from services.studies.gripper.tuning import OBJECTIVE_WEIGHTS, SPACES, hi_p95_n
+from services.studies.engine import open_cluster
+from services.studies.engine_cli import add_engine_arguments
+from services.studies.gripper.tuning import OBJECTIVE_WEIGHTS, SPACES, Runner, engine_runner, hi_p95_n
 
 DESCRIPTION = "Tune a release controller's parameters with CMA-ES on the tuning seed; write the best as a preset."
 
@@ -65,6 +68,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="a dropped object counts this many failures in the objective (1–100; 1: like a refused "
                         "handover; keep it on --resume)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--engine", action="store_true",
+                   help="run each generation's chunks on the studies' engine (Dask; the same scores as without): "
+                        "a local cluster of --workers processes, or the cluster at --address (either implies "
+                        "--engine); resume with --resume")
+    add_engine_arguments(p, checkpoint=False)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -74,10 +82,18 @@ def run(args: argparse.Namespace) -> int:
         print(f"handover-study tune: error: --resume needs {out} and {state_path(out)} from an earlier run",
               file=sys.stderr)
         return 2
+    on_engine = args.engine or args.workers is not None or args.address is not None
+    where = open_cluster(args.address, args.workers) if on_engine else contextlib.nullcontext(None)
+    with where as client:
+        return _tune(args, out, engine_runner(client) if on_engine else None)
+
+
+def _tune(args: argparse.Namespace, out: Path, runner: Runner | None) -> int:
+    """The tuning run (`runner`: where the chunks run, `tuning.evaluate`); exit code."""
     space = SPACES[args.controller]
     t0 = time.perf_counter()
     chunks = bench_chunks(args.seed, args.episodes, args.chunk_size, args.population)
-    hi = hi_p95_n(chunks)
+    hi = hi_p95_n(chunks, runner)
     provenance = {"seed": args.seed, "episodes": args.episodes, "population": args.population,
                   "chunk_size": args.chunk_size, "budget": args.budget, "popsize": args.popsize,
                   "optimiser": "cma.CMAEvolutionStrategy (cma 4.5.0, unit-cube bounds, sigma0 0.25, seed 1)",
@@ -97,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
     interrupted = False
     try:
         state = run_cma(space, chunks, args.budget, out, hi, provenance, resume=args.resume, popsize=args.popsize,
-                        on_generation=progress, drop_weight=args.drop_weight)
+                        on_generation=progress, drop_weight=args.drop_weight, runner=runner)
     except KeyboardInterrupt:
         interrupted = True
     except GripperError as exc:
