@@ -151,13 +151,13 @@ def _heat_plot(plt, result: SweepResult, log: tuple[bool, ...], hi: PointStats |
                 ax.add_patch(Rectangle((j, i), 1, 1, fill=False, hatch="//", edgecolor="#dddddd", lw=0))
         ox, oy = (_grid_position(xs, result.own_values[result.names[1]], log[1]),
                   _grid_position(ys, result.own_values[result.names[0]], log[0]))
-        ax.plot(ox, oy, marker="*", ms=16, color="#ff4040", mec="k", label=f"{result.controller} (own)")
+        ax.plot(ox, oy, marker="*", ms=16, color="#ff4040", mec="k")
         ax.set_xticks(np.arange(len(xs)) + 0.5, [f"{v:.3g}" for v in xs], rotation=45)
         ax.set_yticks(np.arange(len(ys)) + 0.5, [f"{v:.3g}" for v in ys])
         ax.set_xlabel(result.names[1])
         ax.set_ylabel(result.names[0])
-        ax.set_title(label + (" (hatched: p95 above HI's)" if hi is not None else ""), fontsize=9)
-        ax.legend(fontsize=8, loc="upper right")
+        ax.set_title(f"{label}; ★ {result.controller}'s own values"
+                     + ("; hatched: p95 above HI's" if hi is not None else ""), fontsize=9)
     return fig
 
 
