@@ -1,6 +1,6 @@
-"""`handover-study tune` on the studies' engine (tuning.engine_runner, engine.open_cluster): each
-generation's chunks run as engine tasks and give the same scores, bit for bit, as the in-process
-path, on a real local Dask cluster and in this process."""
+"""`handover-study tune` on the studies' engine (tuning.engine_runner, engine.open_cluster; the
+default): each generation's chunks run as engine tasks and give the same scores, bit for bit, as
+the in-process path, on a real local Dask cluster and in this process (`--workers 1`)."""
 
 from __future__ import annotations
 
@@ -20,7 +20,7 @@ SETS = [{}, {"hold_per_weight": 9.0, "release_share": 0.3, "max_hold_force_n": 3
 
 @pytest.fixture(scope="module")
 def chunks():
-    return bench_chunks(1000, 24, 8, population("wide", ["slow", "fast-force"]))  # 4 chunks of 6 episodes
+    return bench_chunks(1000, 24, 12, population("wide", ["slow"]))  # 2 chunks of 12 episodes
 
 
 def _same(a, b) -> None:
@@ -54,14 +54,20 @@ def test_open_cluster_refuses_workers_with_an_address():
             pass
 
 
-def test_cli_engine_flag_gives_the_in_process_result(tmp_path):
+def test_cli_on_a_local_cluster_gives_the_in_process_result(tmp_path):
     common = ["tune", "--controller", "HI", "-n", "16", "--chunk-size", "8", "--population", "narrow", "--budget", "5",
               "--popsize", "4", "--quiet"]
-    assert study_main(common + ["--out", str(tmp_path / "here.json")]) == 0
-    assert study_main(common + ["--engine", "--workers", "1", "--out", str(tmp_path / "engine.json")]) == 0
+    assert study_main(common + ["--workers", "1", "--out", str(tmp_path / "here.json")]) == 0
+    assert study_main(common + ["--workers", "2", "--out", str(tmp_path / "engine.json")]) == 0
     here, engine = (json.loads((tmp_path / f"{n}.json").read_text()) for n in ("here", "engine"))
     assert engine["best_params"] == here["best_params"] and engine["best_rerun"] == here["best_rerun"]
     assert [h["objective_min"] for h in engine["history"]] == [h["objective_min"] for h in here["history"]]
+
+
+def test_cli_workers_with_address_is_a_usage_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        study_main(["tune", "--controller", "HI", "--workers", "2", "--address", "127.0.0.1:8786"])
+    assert exc.value.code == 2 and "not allowed with" in capsys.readouterr().err
 
 
 def test_cli_tune_has_no_checkpoint_flag(capsys):

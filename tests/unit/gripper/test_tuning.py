@@ -112,7 +112,7 @@ def test_cli_tunes_and_writes_a_preset_the_registry_format_reads(tmp_path, capsy
     presets = tmp_path / "presets.json"
     code = study_main(["tune", "--controller", "HI", "-n", "24", "--chunk-size", "24", "--budget", "5",
                        "--popsize", "4", "--out", str(tmp_path / "hi.json"), "--write-preset", "HI-x",
-                       "--presets-file", str(presets), "--quiet"])
+                       "--presets-file", str(presets), "--quiet", "--workers", "1"])
     assert code == 0
     doc = json.loads(presets.read_text())["HI-x"]
     assert doc["base"] == "HI" and set(doc["params"]) == set(SPACES["HI"].names)
