@@ -90,6 +90,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"handover-study sweep: error: {exc}", file=sys.stderr)
         return 2
     engine = engine_options(args, "sweep")
+    resumed = engine["checkpoint_path"] is not None and engine["checkpoint_path"].exists()
     try:
         result = run_sweep(args.controller, points, args.episodes, seed=args.seed, dist=dist,
                            population=args.population, chunk_size=args.chunk_size,
@@ -102,7 +103,8 @@ def run(args: argparse.Namespace) -> int:
     table = markdown_table(result)
     print(f"\n{args.controller}: {len(points)} grid points + {len(result.references)} references × {args.episodes} "
           f"episodes = {total} episodes, population {args.population}, seed {args.seed}, "
-          f"{result.wall_time_s:.1f} s ({total / max(result.wall_time_s, 1e-9):.0f} episodes/s)\n")
+          + (f"resumed from {engine['checkpoint_path']}, {result.wall_time_s:.1f} s for what was left\n" if resumed else
+             f"{result.wall_time_s:.1f} s ({total / max(result.wall_time_s, 1e-9):.0f} episodes/s)\n"))
     print(table)
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "table.md").write_text(table + "\n")

@@ -78,10 +78,10 @@ def test_cli_bad_input_exits_2_with_one_line(capsys, tmp_path):
 
 def test_a_weak_hold_drops_the_letting_go_receivers_objects():
     result = run_sweep("SG", grid_points("SG", [parse_axis("hold_per_weight=0.02,5.5,15", "SG")]), 48, seed=3,
-                       dist=SLOW, population="wide", chunk_size=48, workers=1, show_progress=False)
+                       dist=SLOW, population="wide", chunk_size=48, references=(), workers=1, show_progress=False)
     weak, own_value, strong = result.points
     own = result.references[0]
-    assert [r.label for r in result.references] == ["SG (own)", "HI"]
+    assert [r.label for r in result.references] == ["SG (own)"]
     assert weak.drop_rate_by_behaviour["dropping"] >= 0.85 and weak.drop_rate > 2 * own.drop_rate
     assert weak.drop_rate >= own_value.drop_rate >= strong.drop_rate  # monotone in the hold
     # The same episodes at every point: the grid point at SG's own value IS the reference run.
@@ -115,8 +115,31 @@ def test_cli_writes_csv_table_plot_and_doc_region_and_resumes(tmp_path, monkeypa
     assert "\nold\n" not in text and "--grippers slow" in text and "](img/" in text
     assert text.endswith("<!-- gripper-sweep:end -->\n\nafter\n")
     first = (tmp_path / "out" / "sweep.csv").read_text()
+    assert "episodes/s" in capsys.readouterr().out
     assert study_main(argv) == 0 and len(calls) == 6  # resumed: nothing run again
     assert (tmp_path / "out" / "sweep.csv").read_text() == first
-    capsys.readouterr()
+    assert "resumed from" in capsys.readouterr().out
     other = [a if a != "hold_per_weight=0.02,5.5" else "hold_per_weight=0.02,6" for a in argv]
     assert study_main(other) == 2 and "other arguments" in capsys.readouterr().err  # not this checkpoint's grid
+
+
+def test_an_interrupted_sweep_resumes_with_only_the_unfinished_tasks(tmp_path, monkeypatch, capsys):
+    real, calls = sweep.evaluate, []
+
+    def failing_third(*a, **k):
+        calls.append(1)
+        if len(calls) == 3:
+            raise RuntimeError("worker lost")
+        return real(*a, **k)
+
+    argv = ["sweep", "--param", "hold_per_weight=0.02,5.5", "-n", "24", "--grippers", "slow", "--workers", "1",
+            "--no-plot", "--no-progress", "--checkpoint", str(tmp_path / "ckpt")]
+    monkeypatch.setattr(sweep, "evaluate", failing_third)
+    assert study_main([*argv, "--out", str(tmp_path / "a")]) == 1  # 2 of the 4 tasks finished, then one failed
+    assert "worker lost" in capsys.readouterr().err and not (tmp_path / "a").exists()
+    calls.clear()
+    monkeypatch.setattr(sweep, "evaluate", lambda *a, **k: calls.append(1) or real(*a, **k))
+    assert study_main([*argv, "--out", str(tmp_path / "a")]) == 0 and len(calls) == 2  # only the unfinished two
+    assert study_main([*argv[:-2], "--out", str(tmp_path / "b")]) == 0  # the same sweep without a checkpoint
+    a, b = ((tmp_path / d / "sweep.csv").read_text() for d in ("a", "b"))
+    assert a == b

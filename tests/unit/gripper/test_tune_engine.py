@@ -55,7 +55,7 @@ def test_open_cluster_refuses_workers_with_an_address():
 
 
 def test_cli_on_a_local_cluster_gives_the_in_process_result(tmp_path):
-    common = ["tune", "--controller", "HI", "-n", "16", "--chunk-size", "8", "--population", "narrow", "--budget", "5",
+    common = ["tune", "--controller", "HI", "-n", "12", "--chunk-size", "6", "--population", "narrow", "--budget", "5",
               "--popsize", "4", "--quiet"]
     assert study_main(common + ["--workers", "1", "--out", str(tmp_path / "here.json")]) == 0
     assert study_main(common + ["--workers", "2", "--out", str(tmp_path / "engine.json")]) == 0
