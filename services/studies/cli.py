@@ -3,6 +3,7 @@
     handover-study bench       Monte-Carlo benchmark of the gripper's release controllers
     handover-study oracle-tune tune the sensor-only family of the benchmark's oracle bound
     handover-study tune        tune a release controller's parameters (CMA-ES) into a preset
+    handover-study sweep       grid sweep of one or two of a release controller's parameters
     handover-study intent      how well the wrist tells a taking receiver from the others, early
     handover-study reproduce   thesis Figures 20-23 and their comparison table
     handover-study failsafe    the fail-safe law's thresholds: fst | fbt | conditions
@@ -34,12 +35,13 @@ def _commands() -> list[tuple[str, str, Callable[[argparse.ArgumentParser], None
     """(name, description, add_arguments, run) of every study command."""
     from services.studies import crosscheck_command, figures_command
     from services.studies.gripper import (analysis_command, bench_command, intent_command, mujoco_loop_command,
-                                          oracle_command, reproduce_command, tune_command)
+                                          oracle_command, reproduce_command, sweep_command, tune_command)
     from services.studies.planner import experiment_command
     from services.studies.tracker import commands as tracker
 
     modules: list[tuple[str, ModuleType]] = [
-        ("bench", bench_command), ("oracle-tune", oracle_command), ("tune", tune_command), ("intent", intent_command),
+        ("bench", bench_command), ("oracle-tune", oracle_command), ("tune", tune_command), ("sweep", sweep_command),
+        ("intent", intent_command),
         ("reproduce", reproduce_command),
         ("failsafe", analysis_command), ("figures", figures_command), ("experiment", experiment_command),
         ("crosscheck", crosscheck_command), ("crosscheck-loop", mujoco_loop_command),

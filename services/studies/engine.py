@@ -45,7 +45,7 @@ from tqdm import tqdm
 from services.studies.engine_checkpoint import Checkpoint
 from services.studies.engine_errors import EngineError, EngineUsageError
 
-__all__ = ["EngineError", "EngineUsageError", "available_cores", "normalise_address", "run_tasks"]
+__all__ = ["EngineError", "EngineUsageError", "available_cores", "normalise_address", "open_cluster", "run_tasks"]
 
 log = logging.getLogger(__name__)
 
@@ -67,7 +67,8 @@ def normalise_address(address: str) -> str:
 
 def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any], *, address: str | None = None,
               workers: int | None = None, description: str = "tasks", checkpoint_path: Path | None = None,
-              show_progress: bool = True, unit: str = "task", weights: Sequence[float] | None = None) -> list:
+              show_progress: bool = True, unit: str = "task", weights: Sequence[float] | None = None,
+              client: Any = None) -> list:
     """Run task_function(argument) for every argument on the engine; results in argument order.
 
     address None: a local cluster started for the call (`workers` processes, default every
@@ -77,15 +78,12 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
     checkpoint_path and the same arguments skips the finished ones (resume), and refuses with
     an EngineUsageError if the arguments differ from the checkpoint's. A tqdm progress bar
     with rate and ETA on stderr when show_progress, counting `weights` (e.g. episodes per
-    task, in `unit`) or tasks."""
+    task, in `unit`) or tasks. client: a client of `open_cluster` to run on (address and workers
+    are then ignored), for a caller that runs many short calls on one cluster."""
     arguments = list(task_arguments)
-    scheduler = normalise_address(address) if address is not None else None
-    if scheduler is not None and workers is not None:
-        raise EngineUsageError("--workers sizes the local cluster; with --address the cluster's own workers run "
-                               "the tasks (drop --workers)")
-    workers = available_cores() if workers is None else int(workers)
-    if workers < 1:
-        raise EngineUsageError(f"workers must be >= 1, got {workers}")
+    if client is not None:
+        address, workers = None, 1
+    scheduler, workers = _where(address, workers)
     sizes = [1] * len(arguments) if weights is None else list(weights)
     if len(sizes) != len(arguments):
         raise EngineUsageError(f"{len(sizes)} weights for {len(arguments)} tasks")
@@ -103,7 +101,9 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
         bar.update(sizes[index])
 
     try:
-        if pending and scheduler is None and (workers == 1 or len(pending) == 1):
+        if pending and client is not None:
+            _run_on(client, task_function, arguments, pending, finished, description)
+        elif pending and scheduler is None and (workers == 1 or len(pending) == 1):
             _run_here(task_function, arguments, pending, finished)
         elif pending:
             with _client(scheduler, min(workers, len(pending))) as client:
@@ -113,6 +113,19 @@ def run_tasks(task_function: Callable[[Any], Any], task_arguments: Iterable[Any]
         if checkpoint is not None:
             checkpoint.close()
     return [results[i] for i in range(len(arguments))]
+
+
+def _where(address: str | None, workers: int | None) -> tuple[str | None, int]:
+    """The scheduler (None: a local cluster) and the local cluster's size; `EngineUsageError`
+    for a malformed address, workers with an address, or workers < 1."""
+    scheduler = normalise_address(address) if address is not None else None
+    if scheduler is not None and workers is not None:
+        raise EngineUsageError("--workers sizes the local cluster; with --address the cluster's own workers run "
+                               "the tasks (drop --workers)")
+    workers = available_cores() if workers is None else int(workers)
+    if workers < 1:
+        raise EngineUsageError(f"workers must be >= 1, got {workers}")
+    return scheduler, workers
 
 
 def available_cores() -> int:
@@ -161,6 +174,19 @@ def _run_on(client, function: Callable, arguments: list, pending: list[int],
             future.release()
     finally:
         client.cancel([f for f in futures if not f.done()])
+
+
+@contextlib.contextmanager
+def open_cluster(address: str | None = None, workers: int | None = None) -> Iterator[Any]:
+    """A Dask client for many `run_tasks(..., client=...)` calls: of the cluster at `address`,
+    or of a local cluster of `workers` processes (default every core) torn down on exit; None
+    (run in this process) for a local cluster of one worker."""
+    scheduler, workers = _where(address, workers)
+    if scheduler is None and workers == 1:
+        yield None
+        return
+    with _client(scheduler, workers) as client:
+        yield client
 
 
 @contextlib.contextmanager

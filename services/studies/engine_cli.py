@@ -23,8 +23,9 @@ def _address(text: str) -> str:
     return text
 
 
-def add_engine_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add ``--workers``, ``--address`` and ``--checkpoint`` (in their own group)."""
+def add_engine_arguments(parser: argparse.ArgumentParser, checkpoint: bool = True) -> None:
+    """Add ``--workers``, ``--address`` and (unless `checkpoint` is False: a command with its own
+    resume) ``--checkpoint``, in their own group."""
     group = parser.add_argument_group("engine (Dask; docs/engine.md)")
     where = group.add_mutually_exclusive_group()
     where.add_argument("--workers", type=positive_int, default=None, metavar="N",
@@ -33,6 +34,8 @@ def add_engine_arguments(parser: argparse.ArgumentParser) -> None:
     where.add_argument("--address", type=_address, default=None, metavar="HOST:PORT",
                        help="run on an existing Dask cluster, e.g. 10.0.0.5:8786 (`dask scheduler` prints it; "
                             "every worker needs this project installed); default: a local cluster on 127.0.0.1")
+    if not checkpoint:
+        return
     group.add_argument("--checkpoint", type=Path, default=None, metavar="DIR",
                        help="keep every finished chunk in DIR as it finishes; run the same command again to "
                             "continue an interrupted run where it stopped (other arguments are refused)")

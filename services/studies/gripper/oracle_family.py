@@ -44,8 +44,8 @@ from services.studies.gripper.episodes import BEHAVIOUR_NAMES, ChunkSpec, Episod
 from services.studies.gripper.oracle import subset_episodes
 from services.studies.gripper.populations import DEFAULT_POPULATION, plan_chunks, population
 
-__all__ = ["BOUNDS", "FamilyParams", "ShareReleaseLaw", "TunedFamily", "bench_chunk", "bench_chunks", "evaluate",
-           "tune"]
+__all__ = ["BOUNDS", "FamilyParams", "ShareReleaseLaw", "TunedFamily", "bench_chunk", "bench_chunks",
+           "draw_planned_chunk", "evaluate", "tune"]
 
 #: Search box of the parameters (c_hold 1/μ-like, k_follow N/N, s_rel share, τ s). It holds the
 #: max-hold (c_hold · W0 ≥ 140 N for every benchmark object, τ longer than an episode: never let go).
@@ -151,14 +151,14 @@ def bench_chunks(seed: int, n_episodes: int, chunk_size: int,
     name; default the bench's) and their sensor-noise seeds, drawn exactly as
     `benchmark.run_benchmark` draws them (`oracle_report` checks the draws against the run)."""
     dist = _distribution(dist)
-    return [_draw(dist, plan) for plan in plan_chunks(dist, n_episodes, chunk_size, seed)]
+    return [draw_planned_chunk(dist, plan) for plan in plan_chunks(dist, n_episodes, chunk_size, seed)]
 
 
 def bench_chunk(seed: int, n_episodes: int, chunk_size: int, index: int,
                 dist: EpisodeDistribution | str | None = None) -> tuple[ChunkSpec, np.random.SeedSequence]:
     """Chunk `index` of `bench_chunks` (only that chunk is drawn)."""
     dist = _distribution(dist)
-    return _draw(dist, plan_chunks(dist, n_episodes, chunk_size, seed)[index])
+    return draw_planned_chunk(dist, plan_chunks(dist, n_episodes, chunk_size, seed)[index])
 
 
 def _distribution(dist: EpisodeDistribution | str | None) -> EpisodeDistribution:
@@ -167,7 +167,7 @@ def _distribution(dist: EpisodeDistribution | str | None) -> EpisodeDistribution
     return population(DEFAULT_POPULATION if dist is None else dist)
 
 
-def _draw(dist: EpisodeDistribution, plan) -> tuple[ChunkSpec, np.random.SeedSequence]:
+def draw_planned_chunk(dist: EpisodeDistribution, plan) -> tuple[ChunkSpec, np.random.SeedSequence]:
     """One planned chunk's episodes and its sensor-noise seed (a fresh copy of the plan's seed:
     `spawn` counts its children)."""
     seq = plan.seed

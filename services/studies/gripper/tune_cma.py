@@ -23,7 +23,7 @@ import cma
 import numpy as np
 
 from services.gripper.errors import GripperError
-from services.studies.gripper.tuning import Chunks, ParamSpace, evaluate
+from services.studies.gripper.tuning import Chunks, ParamSpace, Runner, evaluate
 
 __all__ = ["TuneState", "run_cma"]
 
@@ -78,14 +78,15 @@ def _resume(out: Path, space: ParamSpace) -> tuple[cma.CMAEvolutionStrategy, Tun
 def run_cma(space: ParamSpace, chunks: Chunks, budget: int, out: Path, hi_p95_n: float, provenance: dict,
             resume: bool = False, popsize: int | None = None, seed: int = 0,
             on_generation: Callable[[TuneState], None] | None = None, drop_weight: float = 1.0,
-            above_hi_per_n: float | None = None) -> TuneState:
+            above_hi_per_n: float | None = None, runner: Runner | None = None) -> TuneState:
     """Tune `space` on `chunks` until `budget` evaluations (parameter sets run) are spent or CMA-ES
     stops; the start point is the controller's current parameters. After each generation the
     best-so-far goes to `out` (JSON) and the optimiser's state to `state_path(out)`. A
     KeyboardInterrupt stops the loop with both files up to date from the last full generation. At the
     end the best set is run again alone (`best_rerun`: the figures to quote). `drop_weight`: a
     drop counts this many failures in the objective, `above_hi_per_n` weighs each N of p95
-    overshoot above HI's (`tuning.Scores.objective`)."""
+    overshoot above HI's (`tuning.Scores.objective`). `runner`: where each generation's chunks
+    run (`tuning.evaluate`; default here, `tuning.engine_runner` on the engine: the same scores)."""
     out.parent.mkdir(parents=True, exist_ok=True)
     if resume:
         es, state = _resume(out, space)
@@ -95,13 +96,13 @@ def run_cma(space: ParamSpace, chunks: Chunks, budget: int, out: Path, hi_p95_n:
         if popsize:
             opts["popsize"] = popsize
         es = cma.CMAEvolutionStrategy(space.to_unit(start), SIGMA0, opts)
-        first = evaluate(chunks, space.controller, [start]).summary(0, hi_p95_n, drop_weight, above_hi_per_n)
+        first = evaluate(chunks, space.controller, [start], runner).summary(0, hi_p95_n, drop_weight, above_hi_per_n)
         state = TuneState(space.controller, start, first, first, evaluations=1)
     t0 = time.perf_counter()
     while state.evaluations < budget and not es.stop():
         xs = es.ask()
         sets = [space.to_params(x) for x in xs]
-        scores = evaluate(chunks, space.controller, sets)
+        scores = evaluate(chunks, space.controller, sets, runner)
         j = scores.objective(hi_p95_n, drop_weight, above_hi_per_n)
         es.tell(xs, [float(v) for v in j])
         state.evaluations += len(sets)
@@ -118,7 +119,7 @@ def run_cma(space: ParamSpace, chunks: Chunks, budget: int, out: Path, hi_p95_n:
             on_generation(state)
     # Inside a generation each set sees its own sensor-noise draw (the plant draws noise per batch
     # position), so the best's figures are re-run alone, with the chunks' own noise, at the end.
-    alone = evaluate(chunks, space.controller, [state.best_params])
-    state.best_rerun = alone.summary(0, hi_p95_n, drop_weight, above_hi_per_n)
+    rerun = evaluate(chunks, space.controller, [state.best_params], runner)
+    state.best_rerun = rerun.summary(0, hi_p95_n, drop_weight, above_hi_per_n)
     _write_json(out, state.to_json(provenance))
     return state

@@ -34,6 +34,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Any, Callable
 
 import numpy as np
 
@@ -45,13 +46,16 @@ from services.studies.gripper.episodes import ChunkSpec
 from services.studies.gripper.oracle import subset_episodes
 from services.studies.gripper.oracle_family import taking_overshoot_p95_n
 
-__all__ = ["OBJECTIVE_WEIGHTS", "SPACES", "ParamSpace", "Scores", "SplitController", "evaluate", "hi_p95_n"]
+__all__ = ["OBJECTIVE_WEIGHTS", "SPACES", "ParamSpace", "Runner", "Scores", "SplitController", "engine_runner",
+           "evaluate", "evaluate_chunk", "hi_p95_n"]
 
 #: Weights of the objective (module docstring): per N of p95 overshoot, per s of median release
 #: time, per N of p95 overshoot above HI's.
 OBJECTIVE_WEIGHTS = {"overshoot_p95_per_n": 0.005, "release_time_per_s": 0.05, "above_hi_per_n": 0.05}
 
 Chunks = list[tuple[ChunkSpec, np.random.SeedSequence]]
+#: How `evaluate` runs its per-chunk tasks: runner(function, arguments) → results in order.
+Runner = Callable[[Callable, list], list]
 
 
 @dataclass(frozen=True)
@@ -179,27 +183,45 @@ class Scores:
                 "release_time_median_s": float(self.release_time_median_s()[i]), "hi_overshoot_p95_n": hi_p95_n}
 
 
-def evaluate(chunks: Chunks, controller: str, param_sets: list[dict]) -> Scores:
-    """Run every parameter set of `controller` on the episodes of `chunks` (one batch per chunk)."""
+def evaluate(chunks: Chunks, controller: str, param_sets: list[dict], runner: Runner | None = None) -> Scores:
+    """Run every parameter set of `controller` on the episodes of `chunks` (one batch per chunk).
+    `runner`: how the chunks' tasks run, ``runner(function, arguments) -> results`` (e.g.
+    `services.studies.engine.run_tasks` on a cluster, `engine_runner`); default here, one after
+    the other. Each chunk's batch is the same wherever it runs, so the scores are too."""
     if not param_sets:
         raise GripperError("nothing to evaluate: no parameter set")
-    s = len(param_sets)
-    cols: list[list[np.ndarray]] = [[], [], [], [], []]
-    for chunk, noise in chunks:
-        n = chunk.behaviour.size
-        cfg, rec = subset_episodes(chunk.config, chunk.receivers, np.tile(np.arange(n), s))
-        period = chunk.control_period_s
-        law = SplitController([make_controller(controller, period_s=period, **p) for p in param_sets], n, period)
-        out = run_vectorised(cfg, rec, law, seed=noise)
-        take = np.tile(chunk.behaviour == 0, s)
-        rel = out.release_time_s - np.tile(chunk.grasp_start_s, s)
-        for col, arr in zip(cols, (out.dropped | (take & ~out.handed_over), out.dropped, take & out.handed_over,
-                                   np.where(take, out.force_overshoot_n, np.nan),
-                                   np.where(take & out.handed_over, rel, np.nan))):
-            col.append(np.asarray(arr).reshape(s, n))
-    return Scores(*(np.concatenate(c, axis=1) for c in cols))
+    tasks = [(chunk, noise, controller, [dict(p) for p in param_sets]) for chunk, noise in chunks]
+    parts = [evaluate_chunk(t) for t in tasks] if runner is None else runner(evaluate_chunk, tasks)
+    return Scores(*(np.concatenate([part[k] for part in parts], axis=1) for k in range(5)))
 
 
-def hi_p95_n(chunks: Chunks) -> float:
+def evaluate_chunk(task: tuple) -> tuple[np.ndarray, ...]:
+    """One chunk's batch of every parameter set (`evaluate`'s task): failed, dropped, handed over,
+    overshoot (N) and release time (s), each of shape (sets, chunk episodes)."""
+    chunk, noise, controller, param_sets = task
+    s, n = len(param_sets), chunk.behaviour.size
+    cfg, rec = subset_episodes(chunk.config, chunk.receivers, np.tile(np.arange(n), s))
+    period = chunk.control_period_s
+    law = SplitController([make_controller(controller, period_s=period, **p) for p in param_sets], n, period)
+    out = run_vectorised(cfg, rec, law, seed=noise)
+    take = np.tile(chunk.behaviour == 0, s)
+    rel = out.release_time_s - np.tile(chunk.grasp_start_s, s)
+    cols = (out.dropped | (take & ~out.handed_over), out.dropped, take & out.handed_over,
+            np.where(take, out.force_overshoot_n, np.nan), np.where(take & out.handed_over, rel, np.nan))
+    return tuple(np.asarray(c).reshape(s, n) for c in cols)
+
+
+def engine_runner(client: Any) -> Runner:
+    """A `runner` for `evaluate` on the engine: the chunks' tasks through
+    `services.studies.engine.run_tasks` on `client` (of `engine.open_cluster`; None: here)."""
+    from services.studies.engine import run_tasks
+
+    def run(function: Callable, arguments: list) -> list:
+        return run_tasks(function, arguments, client=client, workers=1 if client is None else None,
+                         description="tune", show_progress=False)
+    return run
+
+
+def hi_p95_n(chunks: Chunks, runner: Runner | None = None) -> float:
     """HI's p95 force overshoot over the taking episodes of `chunks` (same noise), N."""
-    return float(evaluate(chunks, "HI", [{}]).overshoot_p95_n()[0])
+    return float(evaluate(chunks, "HI", [{}], runner).overshoot_p95_n()[0])

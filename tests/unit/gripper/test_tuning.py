@@ -115,7 +115,7 @@ def test_cli_tunes_and_writes_a_preset_the_registry_format_reads(tmp_path, capsy
     presets = tmp_path / "presets.json"
     code = study_main(["tune", "--controller", "HI", "-n", "24", "--chunk-size", "24", "--budget", "5",
                        "--popsize", "4", "--out", str(tmp_path / "hi.json"), "--write-preset", "HI-x",
-                       "--presets-file", str(presets), "--quiet"])
+                       "--presets-file", str(presets), "--quiet", "--workers", "1"])
     assert code == 0
     doc = json.loads(presets.read_text())["HI-x"]
     assert doc["base"] == "HI" and set(doc["params"]) == set(SPACES["HI"].names)
@@ -138,7 +138,7 @@ def test_cli_above_hi_weight_reaches_the_objective_and_the_provenance(tmp_path):
     presets = tmp_path / "presets.json"
     assert study_main(["tune", "--controller", "HI", "-n", "24", "--chunk-size", "24", "--budget", "5",
                        "--popsize", "4", "--out", str(tmp_path / "hi.json"), "--write-preset", "HI-y",
-                       "--presets-file", str(presets), "--above-hi-weight", "2.5", "--quiet"]) == 0
+                       "--presets-file", str(presets), "--above-hi-weight", "2.5", "--quiet", "--workers", "1"]) == 0
     doc = json.loads((tmp_path / "hi.json").read_text())
     assert doc["provenance"]["weights"]["above_hi_per_n"] == 2.5
     best = doc["best_rerun"]
@@ -151,7 +151,7 @@ def test_cli_above_hi_weight_reaches_the_objective_and_the_provenance(tmp_path):
 
 def test_cli_p95_margin_moves_the_hinge_below_his_p95(tmp_path, capsys):
     common = ["tune", "--controller", "HI", "-n", "24", "--chunk-size", "24", "--budget", "5", "--popsize", "4",
-              "--quiet"]
+              "--quiet", "--workers", "1"]
     assert study_main([*common, "--out", str(tmp_path / "a.json")]) == 0
     assert study_main([*common, "--out", str(tmp_path / "b.json"), "--p95-margin", "2.5"]) == 0
     a, b = (json.loads((tmp_path / f).read_text()) for f in ("a.json", "b.json"))
