@@ -43,7 +43,8 @@ def djt_optimum_base_m(draw: EpisodeDraw, planner_config: dict[str, Any],
     when no point is reachable by both the robot and that receiver (a receiver drawn too far or
     too small for the scene: the episode has no reference, its transfer-point error is n/a).
     `robot`: the episode's arm, whose giver stand-in and reach start the planner uses (as the
-    planner service does with `handover_model.robots.active()`); None: Baxter's."""
+    planner service does with `handover_model.robots.active()`); None: the default arm's
+    (`handover_model.robots.DEFAULT_ROBOT`)."""
     cfg = load_config(planner_config, robot)
     receiver = true_receiver(draw, cfg.model.use_measured_shoulder_height)
     try:

@@ -164,7 +164,7 @@ def run_and_record(folder: Path, profile: Path, draw: EpisodeDraw, planner_confi
     """Run the stack of `profile` (the episode of `draw`) with its output in `folder`; the
     record read from its recording (``record.json`` is written by the caller). `keep_fds`:
     descriptors the launcher inherits (the episode's lock); `robot`: the profile's arm (the DJT
-    reference's giver; None: Baxter's)."""
+    reference's giver; None: the default arm's)."""
     t0 = time.monotonic()
     command = launcher_command(profile, folder, draw.episode, clock)
     code, timed_out = run_stack(command, folder / "console.txt", timeout_s, keep_fds)
