@@ -62,12 +62,12 @@ from services.studies.gripper.episodes import (
     GRIPPER_CLASSES,
     GRIPPER_CODES,
     EpisodeDistribution,
-    sample_chunk,
 )
 from services.studies.gripper.populations import (
     DEFAULT_POPULATION,
     POPULATIONS,
     ChunkPlan,
+    draw_planned_chunk,
     plan_chunks,
     population,
     subpopulations,
@@ -116,10 +116,7 @@ def build_controller(name: str, period_s: float, overrides: dict | None = None):
 
 def _run_job(args) -> tuple[str, int, BatchOutcome, dict]:
     name, plan, dist, overrides = args
-    seq = plan.seed
-    # A fresh copy: `spawn` counts its children, and the same chunk seed serves every controller.
-    draw_seq, noise_seq = np.random.SeedSequence(seq.entropy, spawn_key=seq.spawn_key).spawn(2)
-    chunk = sample_chunk(dist, plan.size, np.random.default_rng(draw_seq), gripper=plan.gripper, kinds=plan.kinds)
+    chunk, noise_seq = draw_planned_chunk(dist, plan)
     controller = build_controller(name, chunk.control_period_s, overrides)
     attributed = run_attributed(chunk.config, chunk.receivers, controller, seed=noise_seq)
     draws = dict(mass_kg=chunk.mass_kg, mu_static=chunk.mu_static, pull_angle_rad=chunk.pull_angle_rad,

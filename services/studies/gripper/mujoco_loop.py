@@ -33,8 +33,8 @@ from robot_sim.contact.outcome import BatchOutcome
 from robot_sim.contact.receiver import ReceiverParams
 from services.gripper.controllers.registry import CONTROLLER_NAMES, make_controller
 from services.gripper.errors import GripperError
-from services.studies.gripper.episodes import ChunkSpec, EpisodeDistribution, sample_chunk
-from services.studies.gripper.populations import ChunkPlan, plan_chunks
+from services.studies.gripper.episodes import ChunkSpec, EpisodeDistribution
+from services.studies.gripper.populations import ChunkPlan, chunk_seeds, draw_planned_chunk, plan_chunks
 
 __all__ = ["EpisodeSpec", "LoopResult", "LoopTask", "episode_seed", "episode_spec", "plan_tasks", "run_task",
            "assemble", "PLANTS"]
@@ -56,21 +56,14 @@ class EpisodeSpec:
     grasp_start_s: float
 
 
-def _seeds(plan: ChunkPlan) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:
-    seq = plan.seed  # a fresh copy: `spawn` counts its children (as the benchmark does)
-    draw, noise = np.random.SeedSequence(seq.entropy, spawn_key=seq.spawn_key).spawn(2)
-    return draw, noise
-
-
 def _chunk(plan: ChunkPlan, dist: EpisodeDistribution) -> ChunkSpec:
-    draw, _ = _seeds(plan)
-    return sample_chunk(dist, plan.size, np.random.default_rng(draw), gripper=plan.gripper, kinds=plan.kinds)
+    return draw_planned_chunk(dist, plan)[0]
 
 
 def episode_seed(plan: ChunkPlan, position: int) -> np.random.SeedSequence:
     """Noise seed of the episode at `position` in the chunk: child `position` of the chunk's
     noise seed (the same for both plants and every controller)."""
-    _, noise = _seeds(plan)
+    _, noise = chunk_seeds(plan)
     return np.random.SeedSequence(noise.entropy, spawn_key=tuple(noise.spawn_key) + (int(position),))
 
 

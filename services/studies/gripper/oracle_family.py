@@ -40,9 +40,9 @@ from scipy import optimize
 from handover_model.grip import SensorSample
 from robot_sim.contact.episode import run_vectorised
 from services.gripper.errors import GripperError
-from services.studies.gripper.episodes import BEHAVIOUR_NAMES, ChunkSpec, EpisodeDistribution, sample_chunk
+from services.studies.gripper.episodes import BEHAVIOUR_NAMES, ChunkSpec, EpisodeDistribution
 from services.studies.gripper.oracle import subset_episodes
-from services.studies.gripper.populations import DEFAULT_POPULATION, plan_chunks, population
+from services.studies.gripper.populations import DEFAULT_POPULATION, draw_planned_chunk, plan_chunks, population
 
 __all__ = ["BOUNDS", "FamilyParams", "ShareReleaseLaw", "TunedFamily", "bench_chunk", "bench_chunks",
            "draw_planned_chunk", "evaluate", "tune"]
@@ -165,15 +165,6 @@ def _distribution(dist: EpisodeDistribution | str | None) -> EpisodeDistribution
     if isinstance(dist, EpisodeDistribution):
         return dist
     return population(DEFAULT_POPULATION if dist is None else dist)
-
-
-def draw_planned_chunk(dist: EpisodeDistribution, plan) -> tuple[ChunkSpec, np.random.SeedSequence]:
-    """One planned chunk's episodes and its sensor-noise seed (a fresh copy of the plan's seed:
-    `spawn` counts its children)."""
-    seq = plan.seed
-    draw_seq, noise_seq = np.random.SeedSequence(seq.entropy, spawn_key=seq.spawn_key).spawn(2)
-    chunk = sample_chunk(dist, plan.size, np.random.default_rng(draw_seq), gripper=plan.gripper, kinds=plan.kinds)
-    return chunk, noise_seq
 
 
 def taking_overshoot_p95_n(overshoot_n: np.ndarray) -> np.ndarray:

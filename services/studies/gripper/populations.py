@@ -38,11 +38,13 @@ from services.studies.gripper.episodes import (
     GRIPPER_CLASSES,
     GRIPPER_CODES,
     RECEIVER_KINDS,
+    ChunkSpec,
     EpisodeDistribution,
+    sample_chunk,
 )
 
 __all__ = ["ChunkPlan", "DEFAULT_POPULATION", "POPULATIONS", "RECEIVER_LABELS", "SubPopulation", "allocate",
-           "plan_chunks", "population", "subpopulations"]
+           "chunk_seeds", "draw_planned_chunk", "plan_chunks", "population", "subpopulations"]
 
 #: How the tables name the receiver kinds.
 RECEIVER_LABELS = {"taking": "taking, lift first", "pull-first": "taking, pull first",
@@ -159,3 +161,19 @@ def plan_chunks(dist: EpisodeDistribution, n_episodes: int, chunk_size: int, see
                     kinds[i] = tuple(str(k) for k in dealt[at:at + size])
                     at += size
     return [ChunkPlan(i, size, seqs[i], g, kinds[i]) for i, (g, size) in enumerate(cuts)]
+
+
+def chunk_seeds(plan: ChunkPlan) -> tuple[np.random.SeedSequence, np.random.SeedSequence]:
+    """(draw, noise) seeds of a planned chunk: children of a fresh copy of the plan's seed
+    (`spawn` counts its children, and the same chunk serves every controller)."""
+    seq = plan.seed
+    draw_seq, noise_seq = np.random.SeedSequence(seq.entropy, spawn_key=seq.spawn_key).spawn(2)
+    return draw_seq, noise_seq
+
+
+def draw_planned_chunk(dist: EpisodeDistribution, plan: ChunkPlan) -> tuple[ChunkSpec, np.random.SeedSequence]:
+    """One planned chunk's episodes and its sensor-noise seed, as every study draws them (the
+    benchmark, the oracle, tuning, sweeps, the MuJoCo closed loop)."""
+    draw_seq, noise_seq = chunk_seeds(plan)
+    chunk = sample_chunk(dist, plan.size, np.random.default_rng(draw_seq), gripper=plan.gripper, kinds=plan.kinds)
+    return chunk, noise_seq

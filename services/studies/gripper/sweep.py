@@ -35,8 +35,7 @@ from services.gripper.errors import GripperError
 from services.studies.engine import run_tasks
 from services.studies.gripper.benchmark import wilson_ci
 from services.studies.gripper.episodes import BEHAVIOUR_NAMES, EpisodeDistribution
-from services.studies.gripper.oracle_family import draw_planned_chunk
-from services.studies.gripper.populations import ChunkPlan, plan_chunks
+from services.studies.gripper.populations import ChunkPlan, draw_planned_chunk, plan_chunks
 from services.studies.gripper.tuning import evaluate
 
 __all__ = ["PointStats", "SweepResult", "point_stats", "run_sweep"]
