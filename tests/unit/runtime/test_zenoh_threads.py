@@ -57,6 +57,17 @@ def _env(value: str | None) -> dict[str, str]:
     return env
 
 
+def _thread_names(task_dir: Path) -> list[str]:
+    """The names of a process's threads; a thread that ends while being read is skipped."""
+    names = []
+    for task in task_dir.iterdir():
+        try:
+            names.append((task / "comm").read_text().strip())
+        except OSError:
+            continue
+    return names
+
+
 def _zenoh_workers(threads: list[str]) -> list[str]:
     return [t for t in threads if t.split("-")[0] in {"app", "acc", "tx", "rx", "net"}]
 
@@ -101,8 +112,9 @@ def test_the_router_process_keeps_two_receive_workers(monkeypatch):
             threads: list[str] = []
 
             def link_threads_up() -> bool:
-                threads[:] = sorted((t / "comm").read_text().strip() for t in task_dir.iterdir())
-                return "rx-1" in threads
+                # Tokio names each worker as it starts, in no fixed order: wait for all three.
+                threads[:] = sorted(_thread_names(task_dir))
+                return {"rx-0", "rx-1", "tx-0"} <= set(threads)
 
             wait_until(link_threads_up, 5.0)
         finally:
