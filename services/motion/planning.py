@@ -35,6 +35,16 @@ from services.motion.paths import (
 
 #: Extra ticks allowed after a Cartesian path's end for the IK to converge on the goal pose.
 CONVERGE_TICKS = 50
+
+
+def ends_close_enough(position_error_m: float, orientation_error_rad: float, config: MotionConfig) -> bool:
+    """Whether a transfer reach that did not converge within `CONVERGE_TICKS` ticks of its
+    path's end is accepted where the IK ended: position error (m) within
+    `transfer_end_tolerance_m`, orientation error (rad) within `orientation_tolerance_rad`."""
+    return (position_error_m <= config.transfer_end_tolerance_m
+            and orientation_error_rad <= config.orientation_tolerance_rad)
+
+
 #: Times a Cartesian goal's duration is stretched (×1.5 each) when the IK cannot keep up.
 _STRETCH_ATTEMPTS = 3
 #: Times a joint move is stretched to meet the receiver-zone speed cap before giving up.
@@ -163,9 +173,13 @@ class GoalPlanner:
                 and result.orientation_error_rad <= cfg.orientation_tolerance_rad
             ):
                 return ""
+        if ends_close_enough(result.position_error_m, result.orientation_error_rad, cfg):
+            return ""
         return (
             f"IK ends {result.position_error_m * 1000:.1f} mm / "
-            f"{math.degrees(result.orientation_error_rad):.2f} deg from the goal pose"
+            f"{math.degrees(result.orientation_error_rad):.2f} deg from the goal pose "
+            f"(accepted within {cfg.transfer_end_tolerance_m * 1000:.0f} mm and "
+            f"{math.degrees(cfg.orientation_tolerance_rad):.1f} deg)"
         )
 
     # ------------------------------------------------------------------ joint moves

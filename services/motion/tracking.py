@@ -3,7 +3,8 @@
 The path time advances by the (clamped) tick period, not the wall clock: a tick that comes
 late (the process starved of CPU) pauses the path instead of making the target jump further
 than one IK step can follow. After the path's end the IK gets `planning.CONVERGE_TICKS`
-more ticks to converge on the goal pose.
+more ticks to converge on the goal pose; one that ends within `transfer_end_tolerance_m` of it
+then is held there (`planning.ends_close_enough`).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from services.motion.config import MotionConfig
 from services.motion.errors import IkError
 from services.motion.ik import ArmIk
 from services.motion.paths import CartesianReach
-from services.motion.planning import CONVERGE_TICKS
+from services.motion.planning import CONVERGE_TICKS, ends_close_enough
 
 
 @dataclass(frozen=True)
@@ -91,6 +92,8 @@ class CartesianTracker:
         converged = (result.position_error_m <= cfg.position_tolerance_m
                      and result.orientation_error_rad <= cfg.orientation_tolerance_rad)
         if not converged and self._ticks_after_end > CONVERGE_TICKS:
+            if ends_close_enough(result.position_error_m, result.orientation_error_rad, cfg):
+                return TrackingStep(result.q_rad, converged=True)  # the IK's best, near enough
             return TrackingStep(
                 result.q_rad, failure=f"IK ended {result.position_error_m * 1000:.1f} mm from the goal"
             )
