@@ -23,6 +23,7 @@ from bus_schema import topics
 from services.launcher.episode_watch import EpisodeReport, EpisodeWatch
 from services.launcher.supervisor_silence import SUPERVISOR_SILENT_S, SimClockSilence, SupervisorSilence
 from services.runtime import ServiceNode
+from services.runtime.clock import seconds_to_wall_grid
 
 #: The job's loop wakes at least this often to judge the supervisor's freshness, s.
 WATCH_PERIOD_S = 0.02
@@ -113,7 +114,7 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
     feed = _EpisodeFeed(node, say, silence)
     last_loop_s = time.monotonic()
     while True:
-        node.wait(WATCH_PERIOD_S)
+        node.wait(seconds_to_wall_grid(WATCH_PERIOD_S))
         now_s = time.monotonic()
         late, last_loop_s = now_s - last_loop_s > SELF_STALL_S, now_s
         silence.tick(now_s)

@@ -56,6 +56,7 @@ from services.launcher.precompile import precompile_stack
 from services.launcher.processes import Child, RouterProcess, emit, stdout_outlet
 from services.runtime import LivelinessWatcher, Profile
 from services.runtime.sched import ROUTER_PID_ENV
+from services.runtime.clock import seconds_to_wall_grid
 
 #: At exit, how long the launcher waits for a blocked stdout to take its last lines, s.
 EXIT_FLUSH_S = 10.0
@@ -143,7 +144,7 @@ class Launcher:
                         del self.children[name]
                         self._fail(decision.reason)
                         self.stop_requested.set()
-            self.stop_requested.wait(0.02)
+            self.stop_requested.wait(seconds_to_wall_grid(0.02))
 
     def _wait_alive(self, watcher: LivelinessWatcher, names: set[str] | None = None) -> float:
         names = names if names is not None else {s.name for s in self.specs}

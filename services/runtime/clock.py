@@ -244,6 +244,22 @@ def clock_source(profile_source: str | None) -> str:
     return source
 
 
+#: The phase of every wall-clock loop grid of the stack, s: each loop of each process on a host
+#: ticks at ``k · period`` of the host's monotonic clock, so the loops of all the processes wake
+#: together (their periods divide one another: 10, 25, 50, 100 ms) instead of each at its own
+#: phase. On a virtual machine the first wake of an idle CPU is what costs (docs/performance.md,
+#: "Timers on one grid"); wakes that come together share it.
+WALL_GRID_PHASE_S = 0.0
+
+
+def seconds_to_wall_grid(period_s: float, now_s: float | None = None) -> float:
+    """Seconds from `now_s` (monotonic s, default now) to the next point of the host's shared
+    wall-clock grid of `period_s` (s, > 0; `WALL_GRID_PHASE_S`): a watch loop that waits this
+    long wakes with the stack's other loops. Always more than a tenth of a period."""
+    now_s = time.monotonic() if now_s is None else now_s
+    return first_grid_time_s(now_s + period_s / 10, period_s, WALL_GRID_PHASE_S) - now_s
+
+
 def grid_phase_s(name: str, owner: str = "bridge") -> float:
     """The phase of `name`'s loop grids on the simulation clock, s."""
     return 0.0 if name == owner else PARTICIPANT_PHASE_S

@@ -80,6 +80,8 @@ class RateLoop:
             its first point (the simulation clock, where every run must tick at the same times).
         tolerance_s: a deadline counts as reached this close before it, s (the simulation
             clock's whole-ns times against the grid's float sums).
+        rest_on_grid: a `rest_until` deadline is moved to the grid point nearest to it (with
+            `align_phase_s`), so that a resting loop still wakes with the others of the host.
 
     Attributes:
         period_s: the grid's period, s; a tick may change it (the supervisor ticks slower
@@ -92,7 +94,7 @@ class RateLoop:
                  clock: Callable[[], float] = time.monotonic, wait: WaitFn | None = None,
                  urgent: Callable[[], bool] | None = None, wake_source: WaitFn | None = None,
                  urgent_per_period: int | None = 1, align_phase_s: float | None = None,
-                 tolerance_s: float = 0.0) -> None:
+                 tolerance_s: float = 0.0, rest_on_grid: bool = False) -> None:
         if not rate_hz > 0:
             raise ValueError(f"loop rate must be > 0 Hz, got {rate_hz}")
         if urgent is not None and wake_source is None:
@@ -110,6 +112,7 @@ class RateLoop:
         self._wake_source = wake_source
         self._align_phase_s = align_phase_s
         self._tolerance_s = tolerance_s
+        self._rest_on_grid = rest_on_grid and align_phase_s is not None
         self._overrun_log = RateLimitedLog(log, OVERRUN_LOG_PERIOD_S)
 
     def rest_until(self, deadline_s: float) -> None:
@@ -147,6 +150,9 @@ class RateLoop:
     def _take_rest(self, grid_deadline_s: float) -> float | None:
         """The rest deadline the last tick asked for (not before `grid_deadline_s`), or None."""
         rest, self._rest_until_s = self._rest_until_s, None
+        if rest is not None and self._rest_on_grid:
+            assert self._align_phase_s is not None
+            rest = first_grid_time_s(rest - self.period_s / 2, self.period_s, self._align_phase_s)
         return None if rest is None else max(grid_deadline_s, rest)
 
     def _sleep_until(self, grid_deadline_s: float) -> Generator[int, None, float]:

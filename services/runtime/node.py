@@ -26,7 +26,7 @@ import zenoh
 
 from bus_schema import Topic, alive_key
 from bus_schema.topics import HEARTBEAT
-from services.runtime.clock import SimClock, WallClock, grid_phase_s
+from services.runtime.clock import WALL_GRID_PHASE_S, SimClock, WallClock, grid_phase_s
 from services.runtime.clock_owner import ClockOwner, make_clock
 from services.runtime.errors import BusError
 from services.runtime.faults import rules_for
@@ -289,10 +289,10 @@ class ServiceNode:
         late_log = RateLimitedLog(log, 5.0)
         with WakeSampler() as sampler:  # opened here: it samples this thread
             previous = sampler.raw()
-            beats = RateLoop(1.0 / period_s, self.stop_event, name=f"{self.name} heartbeat")
-            for tick in beats:
-                if tick == 0:  # the loop's first tick is at once; the first beat is a period on
-                    continue
+            # On the host's shared grid: the first beat is at its first point, up to a period on.
+            beats = RateLoop(1.0 / period_s, self.stop_event, name=f"{self.name} heartbeat",
+                             align_phase_s=WALL_GRID_PHASE_S)
+            for _tick in beats:
                 now = sampler.raw()
                 self._beat()
                 lateness_s = now.monotonic_s - previous.monotonic_s - period_s
@@ -355,13 +355,16 @@ class ServiceNode:
         """The `RateLoop` at `rate_hz` (Hz) behind `loop`, for a caller that reads its period or
         stats. `urgent`: asked whenever a subscription with ``wake=True`` (or `wake_up`) wakes
         the loop; True runs an extra tick at once, at most `urgent_per_period` of them between
-        two grid ticks (None: no limit). Declares the liveliness token first if `ready()` was
-        not called."""
+        two grid ticks (None: no limit). On the wall clock the grid is the host's shared one
+        (`WALL_GRID_PHASE_S`: the first tick waits for its first point, and a `rest_until`
+        deadline moves to the nearest point), so every process's loops wake together.
+        Declares the liveliness token first if `ready()` was not called."""
         self.ready()
         name = f"{self.name} {rate_hz:g} Hz loop"
         if not self._paced_by_sim_clock:
             loop = RateLoop(rate_hz, self.stop_event, name=name, urgent=urgent,
-                            wake_source=self.wait if urgent is not None else None, urgent_per_period=urgent_per_period)
+                            wake_source=self.wait if urgent is not None else None, urgent_per_period=urgent_per_period,
+                            align_phase_s=WALL_GRID_PHASE_S, rest_on_grid=True)
         else:  # the simulation clock: a grid from time 0, every step through the clock
             clock = self._sim_clock
             if isinstance(clock, ClockOwner):
