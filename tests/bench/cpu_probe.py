@@ -17,6 +17,7 @@ import argparse
 import json
 import os
 import re
+import statistics
 import subprocess
 import sys
 import time
@@ -108,6 +109,28 @@ def wake_cost_us(rate_hz: float = 100.0, seconds: float = 2.0) -> float:
             "v = resource.getrusage(resource.RUSAGE_SELF)\n"
             "print((v.ru_utime + v.ru_stime - u.ru_utime - u.ru_stime) / n * 1e6)")
     return float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
+
+
+def shared_wake_cost_us(processes: int = 4, rate_hz: float = 100.0, seconds: float = 3.0,
+                        one_grid: bool = True) -> float:
+    """CPU time (µs) one wake costs when `processes` fresh interpreters sleep to `rate_hz` grids
+    of the host's monotonic clock at once: all on one grid (`one_grid`, as the stack's loops
+    are) or each on its own phase, spread evenly over the period. All start at one moment, 0.5 s
+    after launch (their start-up out of the window); the mean over the processes."""
+    code = ("import time, resource, sys\n"
+            f"period = 1 / {rate_hz}; start = float(sys.argv[1]); n = int({rate_hz} * {seconds})\n"
+            "time.sleep(max(0.0, start - time.monotonic()))\n"
+            "u = resource.getrusage(resource.RUSAGE_SELF)\n"
+            "for k in range(1, n + 1):\n    d = start + k * period - time.monotonic()\n"
+            "    if d > 0: time.sleep(d)\n"
+            "v = resource.getrusage(resource.RUSAGE_SELF)\n"
+            "print((v.ru_utime + v.ru_stime - u.ru_utime - u.ru_stime) / n * 1e6)")
+    start_s = (time.monotonic() // (1 / rate_hz) + 1) / rate_hz + 0.5
+    phases = [0.0 if one_grid else k / (processes * rate_hz) for k in range(processes)]
+    procs = [subprocess.Popen([sys.executable, "-c", code, repr(start_s + phase)], stdout=subprocess.PIPE, text=True)
+             for phase in phases]
+    costs = [float(proc.communicate(timeout=seconds + 30)[0]) for proc in procs]
+    return statistics.fmean(costs)
 
 
 def _wait_for(path: Path | list[Path], pattern: re.Pattern[str], proc: subprocess.Popen, timeout_s: float) -> str:

@@ -29,7 +29,7 @@ from pathlib import Path
 import pytest
 
 from tests.bench._report import save, table
-from tests.bench.cpu_probe import CpuWindow, run_stack, wake_cost_us
+from tests.bench.cpu_probe import CpuWindow, run_stack, shared_wake_cost_us, wake_cost_us
 
 pytestmark = pytest.mark.bench
 
@@ -107,21 +107,25 @@ def _rows(now: dict[str, CpuWindow], before: dict[str, CpuWindow] | None) -> lis
     return rows
 
 
-def _switch_line(now: dict[str, CpuWindow], before: dict[str, CpuWindow] | None, wake_us: float) -> str:
-    """Context switches of the whole stack and what waking alone costs at that rate."""
+def _switch_line(now: dict[str, CpuWindow], before: dict[str, CpuWindow] | None, wakes_us: dict[str, float]) -> str:
+    """Context switches of the whole stack, what waking alone costs at that rate, and what a
+    wake costs when processes wake together or apart."""
     def pair(kind: str) -> str:
         n = now[kind].total_switches_per_s
         return f"{n:,.0f}/s" + (f" ({before[kind].total_switches_per_s:,.0f}/s before)" if before else "")
 
-    idle = now["idle"].total_switches_per_s
+    idle, wake_us = now["idle"].total_switches_per_s, wakes_us["alone"]
     return (f"Context switches, whole stack: idle {pair('idle')}, episode {pair('episode')}. One wake of a "
             f"sleeping Python thread costs {wake_us:.0f} µs of CPU on this machine (a bare 100 Hz sleep loop, "
             f"measured in this run), so waking threads alone costs the idle stack about "
-            f"{idle * wake_us * 1e-6:.2f} core.")
+            f"{idle * wake_us * 1e-6:.2f} core. Four processes sleeping to 100 Hz grids at once pay "
+            f"{wakes_us['four_on_one_grid']:.0f} µs a wake when their grids coincide (the stack's loops: "
+            f"[Timers on one grid](#timers-on-one-grid)) and {wakes_us['four_spread']:.0f} µs when each "
+            "has its own phase (medians of 5 interleaved rounds).")
 
 
 def _write_doc(rows: list[tuple[str, ...]], now: dict[str, CpuWindow], before: dict[str, CpuWindow] | None,
-               wake_us: float) -> None:
+               wakes_us: dict[str, float]) -> None:
     rec_now = now["episode"].recording_bytes_per_s / 1e6
     lines = [table(rows, ("process", "idle before", "idle now", "episode before", "episode now")), "",
              f"Recording of the default episode run: {now['episode'].recording_bytes / 1e6:.2f} MB over "
@@ -129,19 +133,32 @@ def _write_doc(rows: list[tuple[str, ...]], now: dict[str, CpuWindow], before: d
              + (f"; before: {before['episode'].recording_bytes_per_s / 1e6:.3f} MB/s." if before else "."),
              f"Idle window {now['idle'].seconds:.0f} s; episode window {now['episode'].seconds:.1f} s now"
              + (f", {before['episode'].seconds:.1f} s before" if before else "") + ". "
-             + (f"Before = commit `{BASELINE_REV}`, measured in the same sitting. " if before else "")
+             + (f"Before = commit `{BASELINE_REV}`, measured in the same sitting; now / before: idle "
+                f"{now['idle'].total_cores / before['idle'].total_cores:.2f}, episode "
+                f"{now['episode'].total_cores / before['episode'].total_cores:.2f}. " if before else "")
              + f"Each figure is the median of {ROUNDS} rounds, the two stacks interleaved. Idle = the stack "
              "up after its episode has ended (`--job none`; the supervisor runs the profile's episode first).",
-             "", _switch_line(now, before, wake_us)]
+             "", _switch_line(now, before, wakes_us)]
     text = DOC.read_text()
     head, rest = text.split(BEGIN, 1)
     _, tail = rest.split(END, 1)
     DOC.write_text(head + BEGIN + "\n" + "\n".join(lines) + "\n" + END + tail)
 
 
+def _wake_costs_us(rounds: int = 5) -> dict[str, float]:
+    """What a wake costs (µs): one sleeper alone; four on one grid; four on spread phases.
+    Medians over `rounds` interleaved rounds (one round of a few seconds is noisy here)."""
+    runs: dict[str, list[float]] = {"alone": [], "four_on_one_grid": [], "four_spread": []}
+    for _ in range(rounds):
+        runs["alone"].append(wake_cost_us())
+        runs["four_on_one_grid"].append(shared_wake_cost_us(one_grid=True))
+        runs["four_spread"].append(shared_wake_cost_us(one_grid=False))
+    return {kind: statistics.median(costs) for kind, costs in runs.items()}
+
+
 def test_stack_cpu_and_recording_rate(tmp_path: Path) -> None:
     now, before = _measure_rounds(tmp_path, _unpack(BASELINE_REV, tmp_path) if BASELINE_REV else None)
-    wake_us = wake_cost_us()
+    wakes_us = _wake_costs_us()
     rows = _rows(now, before)
     print("\n" + table(rows, ("process", "idle before", "idle now", "episode before", "episode now")))
     results = {
@@ -160,10 +177,10 @@ def test_stack_cpu_and_recording_rate(tmp_path: Path) -> None:
             "idle": now["idle"].total_cores / before["idle"].total_cores,
             "episode": now["episode"].total_cores / before["episode"].total_cores,
             "recording_bytes_per_s": now["episode"].recording_bytes_per_s / before["episode"].recording_bytes_per_s}
-    results["wake_cost_us"] = wake_us
+    results["wake_cost_us"] = wakes_us
     save("cpu", results)
     if DOC.exists():
-        _write_doc(rows, now, before, wake_us)
+        _write_doc(rows, now, before, wakes_us)
     assert "summary" in now["episode"].output, "the default episode did not finish"
     assert now["idle"].total_cores <= IDLE_TARGET_CORES, f"idle stack uses {now['idle'].total_cores:.3f} cores"
     assert now["episode"].total_cores <= EPISODE_TARGET_CORES, f"episode uses {now['episode'].total_cores:.3f} cores"

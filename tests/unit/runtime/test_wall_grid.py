@@ -1,7 +1,7 @@
 """Every wall-clock loop of the stack ticks on one grid of the host's monotonic clock
 (`WALL_GRID_PHASE_S`), so the loops of all the processes wake together; a resting loop's
 deadline is moved onto that grid too. Fake clocks for the grid arithmetic; real sessions on a
-loopback router for the services' loops and heartbeats."""
+loopback router (the suite's `bus`) for the services' loops and heartbeats."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ import pytest
 from bus_schema import decoder_for, topics
 from services.runtime.clock import WALL_GRID_PHASE_S, seconds_to_wall_grid
 from services.runtime.loop import RateLoop
-from services.runtime.node import ServiceNode, open_session
-from services.runtime.testing import BusRouter, loopback_profile, wait_until
+from services.runtime.node import ServiceNode
+from services.runtime.testing import wait_until
 
 
 class _FakeTime:
@@ -83,19 +83,8 @@ def test_seconds_to_wall_grid_reaches_the_next_point_and_never_zero():
     assert 0.002 <= seconds_to_wall_grid(0.02) <= 0.022
 
 
-@pytest.fixture()
-def bus():
-    profile = loopback_profile()
-    with BusRouter(profile):
-        peer = open_session(profile, "client", timeout_s=5.0)
-        try:
-            yield profile, peer
-        finally:
-            peer.close()
-
-
 def test_a_service_loop_and_its_heartbeats_are_on_the_host_grid(bus):
-    profile, peer = bus
+    profile, router = bus
     beat_times: list[float] = []
     decode_beat = decoder_for(topics.HEARTBEAT.type)
 
@@ -103,7 +92,7 @@ def test_a_service_loop_and_its_heartbeats_are_on_the_host_grid(bus):
         decode_beat.decode(sample.payload.to_bytes())
         beat_times.append(time.monotonic())
 
-    sub = peer.declare_subscriber(topics.HEARTBEAT.sender_key("grid-probe", profile.prefix), on_beat)
+    sub = router.declare_subscriber(topics.HEARTBEAT.sender_key("grid-probe", profile.prefix), on_beat)
     try:
         with ServiceNode("grid-probe", profile, install_signal_handlers=False) as node:
             period_s = 0.05
