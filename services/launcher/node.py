@@ -55,8 +55,8 @@ from services.launcher.logins import RunLogins, bus_line, child_env
 from services.launcher.precompile import precompile_stack
 from services.launcher.processes import Child, RouterProcess, emit, stdout_outlet
 from services.runtime import LivelinessWatcher, Profile
-from services.runtime.sched import ROUTER_PID_ENV
 from services.runtime.clock import seconds_to_wall_grid
+from services.runtime.sched import ROUTER_PID_ENV
 
 #: At exit, how long the launcher waits for a blocked stdout to take its last lines, s.
 EXIT_FLUSH_S = 10.0

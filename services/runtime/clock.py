@@ -246,9 +246,10 @@ def clock_source(profile_source: str | None) -> str:
 
 #: The phase of every wall-clock loop grid of the stack, s: each loop of each process on a host
 #: ticks at ``k · period`` of the host's monotonic clock, so the loops of all the processes wake
-#: together (their periods divide one another: 10, 25, 50, 100 ms) instead of each at its own
-#: phase. On a virtual machine the first wake of an idle CPU is what costs (docs/performance.md,
-#: "Timers on one grid"); wakes that come together share it.
+#: together instead of each at its own phase (the 100 Hz grid holds every point of the 20, 50
+#: and 100 ms grids and every other point of the 25 ms one). On a virtual machine the first
+#: wake of an idle CPU is what costs (docs/performance.md, "Timers on one grid"); wakes that
+#: come together share it.
 WALL_GRID_PHASE_S = 0.0
 
 
