@@ -99,24 +99,13 @@ def _switches(proc: psutil.Process) -> float:
     return float(total)
 
 
-def wake_cost_us(rate_hz: float = 100.0, seconds: float = 2.0) -> float:
-    """CPU time (µs) one wake of a sleeping Python thread costs on this machine: a fresh
-    interpreter sleeps to a `rate_hz` grid for `seconds` and divides its CPU time by its wakes."""
-    code = ("import time, resource\n"
-            f"n = int({rate_hz} * {seconds}); t = time.perf_counter(); u = resource.getrusage(resource.RUSAGE_SELF)\n"
-            f"for k in range(n):\n    d = t + (k + 1) / {rate_hz} - time.perf_counter()\n"
-            "    if d > 0: time.sleep(d)\n"
-            "v = resource.getrusage(resource.RUSAGE_SELF)\n"
-            "print((v.ru_utime + v.ru_stime - u.ru_utime - u.ru_stime) / n * 1e6)")
-    return float(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
-
-
-def shared_wake_cost_us(processes: int = 4, rate_hz: float = 100.0, seconds: float = 3.0,
-                        one_grid: bool = True) -> float:
-    """CPU time (µs) one wake costs when `processes` fresh interpreters sleep to `rate_hz` grids
-    of the host's monotonic clock at once: all on one grid (`one_grid`, as the stack's loops
-    are) or each on its own phase, spread evenly over the period. All start at one moment, 0.5 s
-    after launch (their start-up out of the window); the mean over the processes."""
+def wake_cost_us(processes: int = 1, rate_hz: float = 100.0, seconds: float = 3.0,
+                 one_grid: bool = True) -> float:
+    """CPU time (µs) one wake of a sleeping Python thread costs on this machine: `processes`
+    fresh interpreters sleep to `rate_hz` grids of the host's monotonic clock at once, all on
+    one grid (`one_grid`, as the stack's loops are) or each on its own phase, spread evenly over
+    the period; each divides its CPU time by its wakes. All start at one moment, 0.5 s after
+    launch (their start-up out of the window); the mean over the processes."""
     code = ("import time, resource, sys\n"
             f"period = 1 / {rate_hz}; start = float(sys.argv[1]); n = int({rate_hz} * {seconds})\n"
             "time.sleep(max(0.0, start - time.monotonic()))\n"

@@ -29,7 +29,7 @@ from pathlib import Path
 import pytest
 
 from tests.bench._report import save, table
-from tests.bench.cpu_probe import CpuWindow, run_stack, shared_wake_cost_us, wake_cost_us
+from tests.bench.cpu_probe import CpuWindow, run_stack, wake_cost_us
 
 pytestmark = pytest.mark.bench
 
@@ -151,8 +151,8 @@ def _wake_costs_us(rounds: int = 5) -> dict[str, float]:
     runs: dict[str, list[float]] = {"alone": [], "four_on_one_grid": [], "four_spread": []}
     for _ in range(rounds):
         runs["alone"].append(wake_cost_us())
-        runs["four_on_one_grid"].append(shared_wake_cost_us(one_grid=True))
-        runs["four_spread"].append(shared_wake_cost_us(one_grid=False))
+        runs["four_on_one_grid"].append(wake_cost_us(processes=4, one_grid=True))
+        runs["four_spread"].append(wake_cost_us(processes=4, one_grid=False))
     return {kind: statistics.median(costs) for kind, costs in runs.items()}
 
 
