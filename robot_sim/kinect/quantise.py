@@ -17,13 +17,16 @@ f·b / (k·step) in millimetres. Per frame, with noise, only 16-bit and 32-bit p
   disparity whose k stays in 1..6, all of which read 0: no mask per frame, and every index
   is inside the table (in-range depths are ≥ 0.5 m, so k ≤ 687);
 - dropouts, independent Bernoulli(p) per pixel, are drawn sparsely: their number
-  K ~ Binomial(n, p), then K distinct pixels (`rng.choice`), set to 0.
+  K ~ Binomial(n, p), then K distinct pixels (`rng.choice`), whose k is set to 0 (k = 0
+  reads 0).
 
-The per-image work (range test, disparities, sentinel) is done only for a new ideal image,
-without masked writes. Without noise, an unchanged ideal image gives the previous payload
-back (no work). Work buffers are allocated once; per frame numpy still allocates the uint16
-draw (150 kB), `np.take`'s intp copy of its indices and the payload bytes. The payload is the
-image as little-endian uint16 bytes (`bus_schema.messages.DepthImage`).
+`DepthQuantiser.disparities` gives a frame's k (a new int16 array, the frame's own);
+`readings_mm` turns it into the payload's uint16 millimetres and `readings_m` straight into
+the float32 metres (NaN = no reading) the tracker computes from the payload, one table pass
+each, so a consumer in the same process needs no bytes. The per-image work (range test,
+disparities, sentinel) is done only for a new ideal image, without masked writes. Without
+noise, an unchanged ideal image gives the previous payload back (no work). The payload is
+the image as little-endian uint16 bytes (`bus_schema.messages.DepthImage`).
 """
 
 from __future__ import annotations
@@ -54,6 +57,17 @@ def _reading_table_mm() -> np.ndarray:
 _READING_MM = _reading_table_mm()
 
 
+def _reading_table_m() -> np.ndarray:
+    """`_READING_MM` as the tracker reads it: float32 metres (mm × float32 0.001), NaN for 0."""
+    table = _READING_MM.astype(np.float32) * np.float32(0.001)
+    table[_READING_MM == 0] = np.nan
+    table.flags.writeable = False
+    return table
+
+
+_READING_M = _reading_table_m()
+
+
 class DepthQuantiser:
     """Turns ideal depth images (m, +inf = no hit) of one size into Kinect v1 readings.
 
@@ -71,9 +85,6 @@ class DepthQuantiser:
         self._d_steps = np.empty(shape)  # ideal disparity (steps), the sentinel out of range
         self._d_half_steps = np.empty(shape, np.float32)  # the same + 0.5, float32
         self._noise_steps = np.empty(shape, np.float32)
-        self._k = np.empty(shape, np.int16)
-        self._out = np.empty(shape, "<u2")
-        self._out_flat = self._out.reshape(-1)
         self._payload: bytes | None = None  # of the last noise-free image
         self._primed = False
 
@@ -96,34 +107,51 @@ class DepthQuantiser:
         self._primed = True
         self._payload = None
 
-    def quantise(self, depth_m: np.ndarray, rng: np.random.Generator | None, changed: bool = True) -> bytes:
-        """Readings of `depth_m` as the `DepthImage.depth_mm` payload (uint16 mm, little-endian,
-        0 = no reading).
+    def disparities(self, depth_m: np.ndarray, rng: np.random.Generator | None, changed: bool = True) -> np.ndarray:
+        """The frame's integer disparities k (H, W) int16, a new array: `readings_mm` and
+        `readings_m` give its readings. Dropouts get k = 0, which reads 0 (no reading).
 
         Args:
             depth_m: ideal depths (H, W), m.
             rng: noise and dropouts; None: quantisation only.
             changed: False when `depth_m` holds the same values as at the previous call
                 (the caller knows: `SceneDepthRenderer.changed`), which skips the per-image
-                work and, without noise, the whole work.
+                work.
         """
         if changed or not self._primed:
             self._take_ideal(depth_m)
-        elif rng is None and self._payload is not None:
-            return self._payload
-        k = self._k
+        k = np.empty(self.shape, np.int16)
         if rng is None:
             np.rint(self._d_steps, out=k, casting="unsafe")
-        else:
-            u = rng.integers(0, NOISE_TABLE_SIZE, size=self.shape, dtype=np.uint16)
-            noise = np.take(DISPARITY_NOISE_TABLE_STEPS, u, out=self._noise_steps)
-            noise += self._d_half_steps
-            np.copyto(k, noise, casting="unsafe")  # > 0: truncation is floor
-        np.take(_READING_MM, k, out=self._out)
-        if rng is not None and self.dropout_fraction > 0.0:
-            n = self._out_flat.size
-            self._out_flat[rng.choice(n, rng.binomial(n, self.dropout_fraction), replace=False)] = 0
-        payload = self._out.tobytes()
+            return k
+        u = rng.integers(0, NOISE_TABLE_SIZE, size=self.shape, dtype=np.uint16)
+        noise = np.take(DISPARITY_NOISE_TABLE_STEPS, u, out=self._noise_steps)
+        noise += self._d_half_steps
+        np.copyto(k, noise, casting="unsafe")  # > 0: truncation is floor
+        if self.dropout_fraction > 0.0:
+            n = k.size
+            k.reshape(-1)[rng.choice(n, rng.binomial(n, self.dropout_fraction), replace=False)] = 0
+        return k
+
+    def quantise(self, depth_m: np.ndarray, rng: np.random.Generator | None, changed: bool = True) -> bytes:
+        """Readings of `depth_m` as the `DepthImage.depth_mm` payload (uint16 mm, little-endian,
+        0 = no reading); arguments as `disparities`. Without noise, an unchanged image gives
+        the previous payload object back (no work)."""
+        if rng is None and not changed and self._primed and self._payload is not None:
+            return self._payload
+        payload = readings_mm(self.disparities(depth_m, rng, changed)).tobytes()
         if rng is None:
             self._payload = payload
         return payload
+
+
+def readings_mm(k: np.ndarray) -> np.ndarray:
+    """Readings (uint16 mm, little-endian, 0 = no reading) of disparities k (`DepthQuantiser.disparities`)."""
+    return np.take(_READING_MM, k)
+
+
+def readings_m(k: np.ndarray) -> np.ndarray:
+    """Readings (float32 m, NaN = no reading) of disparities k: bit for bit what
+    `services.tracker.pointcloud.depth_frame_from_message` makes of `readings_mm(k)`, in
+    one pass and without the bytes."""
+    return np.take(_READING_M, k)

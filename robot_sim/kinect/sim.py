@@ -7,13 +7,16 @@ Use::
     frame = sim.step(t_s, q_arm_rad)                     # 30 Hz
     skeleton_pub.put(**frame.skeleton_fields)            # bus_schema.messages.Skeleton
     depth_pub.put(**frame.depth_fields)                  # bus_schema.messages.DepthImage
+    frame.readings.metres()                              # the depth in metres, no bytes
     frame.truth.right_hand_m                             # ground truth (for SimTruth)
 
-Depth cost: the static scene (floor, table, the robot's fixed parts, the receiver's legs) is cast
-once; each frame casts only the primitives that moved since the previous frame and reuses
-the image when nothing moved (`robot_sim.kinect.scene_depth`), and quantises into kept
-buffers (`robot_sim.kinect.quantise`). The images equal those of the full ray cast
-(`KinectSim.reference_depth_m` with `kinect_depth_mm`) bit for bit, noise included.
+Depth cost: a frame's depth is made only when something reads it
+(`robot_sim.kinect.readings`). The static scene (floor, table, the robot's fixed parts, the
+receiver's legs) is cast once; a render casts only the primitives that moved since the
+previous render and reuses the image when nothing moved (`robot_sim.kinect.scene_depth`),
+and quantises into kept buffers (`robot_sim.kinect.quantise`). The images equal those of the
+full ray cast (`KinectSim.reference_depth_m` with `kinect_depth_mm` and the frame's
+`KinectSim.noise_rng`) bit for bit, noise included.
 
 Frames: everything in the scene's `base` (x forward, y left, z up), metres; the camera's pose
 and intrinsics are in `robot_sim.kinect.camera`, the table and the receiver's placement in
@@ -31,6 +34,7 @@ from bus_schema.messages import SKELETON_JOINTS, SkeletonJoint
 from handover_model import robots, scene
 from robot_sim.kinect.camera import KinectCamera
 from robot_sim.kinect.quantise import DepthQuantiser
+from robot_sim.kinect.readings import DepthReadings
 from robot_sim.kinect.receiver import BodySize, ReceiverBody, min_jerk
 from handover_model.robot_geometry import ArmGeometry
 from robot_sim.kinect.scene_depth import SceneDepthRenderer, StaticScene, render_reference
@@ -41,6 +45,8 @@ TABLE_THICKNESS_M = 0.03
 TABLE_LEG_RADIUS_M = 0.025
 #: Default object: a 6 x 6 x 12 cm box (x, y, z), as the bottle-sized objects of the thesis.
 DEFAULT_OBJECT_SIZE_M = (0.06, 0.06, 0.12)
+#: The second word of every depth noise seed (`KinectSim.noise_rng`): (seed, stream, frame).
+DEPTH_NOISE_STREAM = 1
 
 
 def table_boxes_and_legs() -> tuple[Box, list[Capsule]]:
@@ -122,23 +128,34 @@ class KinectFrame:
 
     Attributes:
         skeleton_fields: keyword fields of `bus_schema.messages.Skeleton` (no header).
-        depth_fields: keyword fields of `bus_schema.messages.DepthImage` (no header).
-        depth_mm: the depth image (H, W) uint16 mm (0 = no reading): a read-only view of
-            the bytes of `depth_fields["depth_mm"]`.
+        camera_fields: the `bus_schema.messages.DepthImage` fields of the camera (size,
+            intrinsics, pose): all but the header and the readings.
+        readings: the depth readings, made at their first read.
         truth: ground truth.
     """
 
     skeleton_fields: dict[str, Any]
-    depth_fields: dict[str, Any]
-    depth_mm: np.ndarray
+    camera_fields: dict[str, Any]
+    readings: DepthReadings
     truth: KinectTruth
+
+    @property
+    def depth_fields(self) -> dict[str, Any]:
+        """Keyword fields of `bus_schema.messages.DepthImage` (no header); makes the readings."""
+        return {**self.camera_fields, "depth_mm": self.readings.payload}
+
+    @property
+    def depth_mm(self) -> np.ndarray:
+        """The depth image (H, W) uint16 mm (0 = no reading): a read-only view of the bytes of
+        `depth_fields["depth_mm"]`; makes the readings."""
+        return self.readings.mm
 
 
 class KinectSim:
     """Seeded simulated Kinect (depth + skeleton) of the handover scene.
 
     Args:
-        seed: random seed (skeleton errors, depth noise).
+        seed: random seed (skeleton errors; each frame's depth noise, `noise_rng`).
         scenario: what is in the scene.
         camera: sensor pose and intrinsics (default: `robot_sim.kinect.camera`).
         arm_geometry: the robot's arm capsules (default: the active arm's).
@@ -154,7 +171,9 @@ class KinectSim:
         self.scenario = scenario or KinectScenario()
         self.camera = camera or KinectCamera()
         self.arm = arm_geometry or ArmGeometry()
-        self.rng = np.random.default_rng(seed)
+        self.seed = seed
+        self.rng = np.random.default_rng(seed)  # the skeleton's errors
+        self.frames = 0  # frames stepped so far: the next frame's index
         self.body = ReceiverBody(BodySize(self.scenario.height_m, self.scenario.posture))
         self.errors = SkeletonErrorModel(self.scenario.skeleton_errors, self.rng)
         self._table_top, self._table_legs = table_boxes_and_legs()
@@ -168,7 +187,7 @@ class KinectSim:
         self._quantiser = DepthQuantiser((self.camera.height_px, self.camera.width_px), dropout)
         c = self.camera
         #: The DepthImage fields that do not change (the camera does not move).
-        self._depth_constant_fields = {
+        self.camera_fields = {
             "width": c.width_px, "height": c.height_px, "fx": c.fx_px, "fy": c.fy_px, "cx": c.cx_px,
             "cy": c.cy_px, "camera_position_m": tuple(float(v) for v in c.position_m),
             "camera_orientation_xyzw": c.orientation_xyzw,
@@ -235,10 +254,10 @@ class KinectSim:
         tool = self.arm.tool_position(q_arm_rad)
         obj = (np.array(robots.active().object_pick_base_m) if object_position_m is None
                else np.asarray(object_position_m, float))
-        depth_m = self.depth.render(*self.moving_shapes(joints, q_arm_rad, obj))
-        noise_rng = self.rng if self.scenario.depth_noise else None
-        payload = self._quantiser.quantise(depth_m, noise_rng, changed=self.depth.changed)
-        depth_mm = np.frombuffer(payload, "<u2").reshape(depth_m.shape)
+        shapes = self.moving_shapes(joints, q_arm_rad, obj)
+        index, self.frames = self.frames, self.frames + 1
+        readings = DepthReadings(lambda: self._render(shapes), self._quantiser,
+                                 (lambda: self.noise_rng(index)) if self.scenario.depth_noise else None)
         tracked, est, conf = self.errors.step(t_s, joints_arr, tool)
         skeleton_fields: dict[str, Any] = {"tracked": tracked, "user_id": 1 if tracked else 0, "joints": []}
         if tracked:
@@ -247,7 +266,6 @@ class KinectSim:
                               confidence=float(conf[i]))
                 for i, n in enumerate(SKELETON_JOINTS)
             ]
-        depth_fields = {**self._depth_constant_fields, "depth_mm": payload}
         truth = KinectTruth(
             t_s=float(t_s),
             joints_m=joints,
@@ -257,4 +275,15 @@ class KinectSim:
             object_size_m=self.scenario.object_size_m,
             body=self.body.size,
         )
-        return KinectFrame(skeleton_fields, depth_fields, depth_mm, truth)
+        return KinectFrame(skeleton_fields, self.camera_fields, readings, truth)
+
+    def noise_rng(self, index: int) -> np.random.Generator:
+        """The depth noise generator of frame `index` (0 for the first `step`): seeded by the
+        simulator's seed and the index alone."""
+        return np.random.default_rng((self.seed, DEPTH_NOISE_STREAM, index))
+
+    def _render(self, shapes: tuple[list[Capsule], list[Box]]) -> tuple[np.ndarray, bool]:
+        """The ideal depth of the scene with `shapes` moved (m, +inf = no hit) and whether it
+        differs from the previous render's (`SceneDepthRenderer`)."""
+        depth_m = self.depth.render(*shapes)
+        return depth_m, self.depth.changed

@@ -26,7 +26,7 @@ from services.runtime.profile import Profile
 from services.tracker.config import TrackerConfig
 from services.tracker.core import HumanEstimate, TrackerPipeline, skeleton_frame_from_message
 from services.tracker.objects import ObjectDetection
-from services.tracker.pointcloud import depth_frame_from_message
+from services.tracker.pointcloud import DepthFrame, depth_frame_from_message
 from services.tracker.process import tune_process
 from services.tracker.ros1.calibration import CameraPose, load_calibration
 from services.tracker.sources import BusInputs, ReplayInputs, SimKinectInputs
@@ -91,6 +91,10 @@ class _Feeder:
             self.pipe.on_depth(depth_frame_from_message(msg, t_s))
         except ValueError as exc:  # e.g. a zero-norm or inconsistent camera pose
             self.warnings.warning("depth", f"depth image ignored: {exc}")
+
+    def depth_frame(self, frame: DepthFrame) -> None:
+        """A depth frame made in this process (the simulated Kinect's: no message to decode)."""
+        self.pipe.on_depth(frame)
 
     def new_person(self) -> None:
         """The receiver is another person from now on (`TrackerPipeline.new_person`)."""

@@ -12,7 +12,7 @@ pixels they need.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
 from functools import lru_cache
 from itertools import product
 
@@ -27,26 +27,34 @@ WINDOW_MARGIN_PX = 2
 _CORNERS = np.array(list(product((-1.0, 1.0), repeat=3)))
 
 
-@dataclass(frozen=True)
 class DepthFrame:
     """A depth image with its camera.
 
     Attributes:
         depth_m: (H, W) depth along the optical axis (m), NaN where there is no reading.
+            May be given as a function that makes it: it is then called at the first read
+            (a simulated camera's frame that nothing reads costs no readings,
+            `robot_sim.kinect.readings`).
         fx, fy, cx, cy: intrinsics (px).
         camera_position_m: optical centre in `base` (3,).
         camera_rotation: (3, 3) optical frame → `base`.
         t_s: local receive time (s, monotonic clock).
     """
 
-    depth_m: np.ndarray
-    fx: float
-    fy: float
-    cx: float
-    cy: float
-    camera_position_m: np.ndarray
-    camera_rotation: np.ndarray
-    t_s: float = 0.0
+    def __init__(self, depth_m: np.ndarray | Callable[[], np.ndarray], fx: float, fy: float, cx: float,
+                 cy: float, camera_position_m: np.ndarray, camera_rotation: np.ndarray, t_s: float = 0.0) -> None:
+        self._depth_m = depth_m
+        self.fx, self.fy, self.cx, self.cy = fx, fy, cx, cy
+        self.camera_position_m = camera_position_m
+        self.camera_rotation = camera_rotation
+        self.t_s = t_s
+
+    @property
+    def depth_m(self) -> np.ndarray:
+        depth = self._depth_m
+        if callable(depth):
+            depth = self._depth_m = depth()
+        return depth
 
 
 def depth_frame_from_message(msg: DepthImage, t_s: float) -> DepthFrame:
@@ -54,14 +62,23 @@ def depth_frame_from_message(msg: DepthImage, t_s: float) -> DepthFrame:
     mm = np.frombuffer(msg.depth_mm, dtype="<u2").reshape(msg.height, msg.width)
     depth = mm.astype(np.float32) * np.float32(0.001)
     depth[mm == 0] = np.nan
+    return depth_frame_from_camera(depth, msg.fx, msg.fy, msg.cx, msg.cy, msg.camera_position_m,
+                                   msg.camera_orientation_xyzw, t_s)
+
+
+def depth_frame_from_camera(depth_m: np.ndarray | Callable[[], np.ndarray], fx: float, fy: float, cx: float,
+                            cy: float, camera_position_m: Sequence[float],
+                            camera_orientation_xyzw: Sequence[float], t_s: float) -> DepthFrame:
+    """A `DepthFrame` from depth (m, NaN = none; or a function that makes it) and the
+    `DepthImage` fields of its camera (px; m and quaternion x, y, z, w in `base`)."""
     return DepthFrame(
-        depth_m=depth,
-        fx=msg.fx,
-        fy=msg.fy,
-        cx=msg.cx,
-        cy=msg.cy,
-        camera_position_m=np.asarray(msg.camera_position_m, float),
-        camera_rotation=_rotation(tuple(msg.camera_orientation_xyzw)),
+        depth_m=depth_m,
+        fx=fx,
+        fy=fy,
+        cx=cx,
+        cy=cy,
+        camera_position_m=np.asarray(camera_position_m, float),
+        camera_rotation=_rotation(tuple(camera_orientation_xyzw)),
         t_s=t_s,
     )
 

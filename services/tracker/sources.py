@@ -8,7 +8,9 @@
   skeleton and `sim/kinect_truth` for the recorder (the truth when the body moved, or every
   0.1 s when it is still, `TruthGate`; the depth image too only with
   ``publish_depth``): a 150 kB image 30 times a second no longer crosses the bus to reach its
-  only reader, and the stack has one process fewer (issue 16);
+  only reader, and the stack has one process fewer (issue 16). The pipeline gets the depth
+  in metres, made only when it reads them (`robot_sim.kinect.readings`): while the receiver
+  stands still, every third frame (the object detection);
 - `ReplayInputs`: a replay file, paced in real time.
 
 Each `feed(feeder, now_s)` hands the tick's inputs to the `services.tracker.node._Feeder`
@@ -26,6 +28,7 @@ from bus_schema import topics as T
 from services.runtime.logs import RateLimitedLog
 from services.sim_kinect.config import KinectConfig
 from services.sim_kinect.core import TruthGate, arm_posture_rad, make_kinect_sim, scene_input
+from services.tracker.pointcloud import depth_frame_from_camera
 from services.tracker.replay import ReplayItem, read_replay
 
 log = logging.getLogger("tracker")
@@ -113,12 +116,12 @@ class SimKinectInputs:
         if truth_now is not None:
             self._truth_pub.put(**truth_now)
         if self._depth_pub is not None:
-            depth = self._depth_pub.put(**frame.depth_fields)
-        else:
-            depth = T.DEPTH.type(seq=self.frames, stamp_ns=skeleton.stamp_ns, source=skeleton.source,
-                                 **frame.depth_fields)
+            self._depth_pub.put(**frame.depth_fields)
         self.frames += 1
-        feeder.depth(depth, now_s)
+        # The pipeline reads the depth in metres, and only on the frames it needs them.
+        cam = frame.camera_fields
+        feeder.depth_frame(depth_frame_from_camera(frame.readings.metres, cam["fx"], cam["fy"], cam["cx"], cam["cy"],
+                                                   cam["camera_position_m"], cam["camera_orientation_xyzw"], now_s))
         feeder.skeleton(skeleton, now_s)
         return True
 

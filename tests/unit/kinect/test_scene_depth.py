@@ -3,8 +3,6 @@ move, buffered quantisation) gives exactly the images of the full ray cast of ev
 
 from __future__ import annotations
 
-import copy
-
 import numpy as np
 import pytest
 
@@ -135,7 +133,7 @@ def test_kinect_frames_equal_the_reference_pipeline_with_noise():
         t_s = k / 30.0
         q = q + (0.02 if k % 4 == 0 else 0.0)
         joints = sim.body.joints(sim.true_hand(t_s))
-        rng = copy.deepcopy(sim.rng)  # the draws that step will make
+        rng = sim.noise_rng(k)  # the draws that the frame will make
         want = kinect_depth_mm(sim.reference_depth_m(joints, q, scene.OBJECT_PICK_BASE_M), rng,
                                sim.scenario.depth_dropout_fraction)
         frame = sim.step(t_s, q)
