@@ -11,7 +11,9 @@ detection), so the simulated Kinect in its process draws only those (issue 16).
 A frame carries what makes its readings, so they are the same whenever it is read and
 whether or not other frames were read:
 
-- its moving shapes (the scene renderer re-renders when frames are read out of order);
+- its inputs (the receiver's joints, the arm's joints, the object's position: copies), from
+  which its moving shapes are made at the read (the scene renderer re-renders when frames are
+  read out of order);
 - its own noise generator, `KinectSim.noise_rng(index)`, seeded by the simulator's seed and
   the frame's index (a frame's noise does not depend on the draws of any other frame or of
   the skeleton's errors).

@@ -251,12 +251,12 @@ class KinectSim:
         joints = self.body.joints(hand)
         self._last_hand = joints["right_hand"].copy()
         joints_arr = np.stack([joints[n] for n in SKELETON_JOINTS])
-        tool = self.arm.tool_position(q_arm_rad)
-        obj = (np.array(robots.active().object_pick_base_m) if object_position_m is None
-               else np.asarray(object_position_m, float))
-        shapes = self.moving_shapes(joints, q_arm_rad, obj)
+        q = np.array(q_arm_rad, float)  # copies: the frame's depth may be made later
+        tool = self.arm.tool_position(q)
+        obj = np.array(robots.active().object_pick_base_m if object_position_m is None else object_position_m, float)
         index, self.frames = self.frames, self.frames + 1
-        readings = DepthReadings(lambda: self._render(shapes), self._quantiser,
+        # The moving shapes too are made only when the depth is read.
+        readings = DepthReadings(lambda: self._render(self.moving_shapes(joints, q, obj)), self._quantiser,
                                  (lambda: self.noise_rng(index)) if self.scenario.depth_noise else None)
         tracked, est, conf = self.errors.step(t_s, joints_arr, tool)
         skeleton_fields: dict[str, Any] = {"tracked": tracked, "user_id": 1 if tracked else 0, "joints": []}

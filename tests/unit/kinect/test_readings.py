@@ -44,6 +44,16 @@ def test_a_frame_nobody_reads_is_never_rendered_nor_drawn():
     assert sim.depth.cast > 0
 
 
+def test_a_frame_keeps_its_inputs_when_the_caller_changes_its_arrays_later():
+    eager_sim, lazy_sim = KinectSim(seed=1, scenario=REACH), KinectSim(seed=1, scenario=REACH)
+    q, obj = HOME.copy(), np.array([0.75, -0.3, 0.0])
+    want = eager_sim.step(0.0, q, object_position_m=obj).readings.payload
+    frame = lazy_sim.step(0.0, q, object_position_m=obj)
+    q += 0.3  # the caller reuses its arrays for the next frame
+    obj[1] += 0.2
+    assert frame.readings.payload == want
+
+
 def test_a_frames_noise_does_not_depend_on_which_frames_were_read():
     reads_all, reads_one = KinectSim(seed=8, scenario=REACH), KinectSim(seed=8, scenario=REACH)
     all_frames = _steps(reads_all, 9)
