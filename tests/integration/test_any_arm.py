@@ -17,6 +17,27 @@ pytestmark = pytest.mark.integration
 ARMS = sorted(set(robots.BUILTIN) - {robots.DEFAULT_ROBOT})
 
 
+def _release_miss_m(rec, truth: list, release, transfer_point_m) -> float:
+    """How far (m) the tool was at the release from where it should have been.
+
+    Once the arm is at the transfer point (the supervisor's ``transfer`` phase), the release
+    happens there: the distance to the planned point. A receiver who takes the object before
+    (the release comes during the reach; on a busy machine a re-plan can re-route the arm
+    just then) takes it on the way: the distance to the straight path of the last transfer
+    goal, from where the tool was when that goal was sent to its point."""
+    def tool_at(stamp: float) -> np.ndarray:
+        return np.array(min(truth, key=lambda m: abs(stamp_s(m) - stamp)).tool_position_m)
+
+    released_s = stamp_s(release)
+    tool = tool_at(released_s)
+    if any(m.phase == "transfer" and stamp_s(m) <= released_s for _t, m in rec.states):
+        return float(np.linalg.norm(tool - np.asarray(transfer_point_m)))
+    goal = max((g for _t, g in rec.goals if g.kind == "transfer" and stamp_s(g) <= released_s), key=stamp_s)
+    start, end = tool_at(stamp_s(goal)), np.asarray(goal.position_base_m)
+    along = float(np.clip(np.dot(tool - start, end - start) / max(np.dot(end - start, end - start), 1e-12), 0, 1))
+    return float(np.linalg.norm(tool - (start + along * (end - start))))
+
+
 @pytest.mark.parametrize("name", ARMS)
 def test_the_default_handover_passes_on_the_arm(name):
     arm = robots.describe(name)
@@ -43,8 +64,8 @@ def test_the_default_handover_passes_on_the_arm(name):
     assert np.linalg.norm(np.subtract(truth[-1].object_position_m, truth[-1].receiver_hand_position_m)) < 0.02
     # The tool went to the DJT point: where the release happened is the planned transfer point.
     t_release, release = rec.releases[0]
-    at_release = min(truth, key=lambda m: abs(stamp_s(m) - stamp_s(release)))
-    assert np.linalg.norm(np.subtract(at_release.tool_position_m, summary.transfer_point_base_m)) < 0.03
+    miss_m = _release_miss_m(rec, truth, release, summary.transfer_point_base_m)
+    assert miss_m < 0.03, f"released {miss_m * 1000:.0f} mm from where the arm was sent"
     # The release interrupt holds on every arm: at rest within 0.2 s of the release.
     rest = first_rest_after(by_stamp(rec.joints), stamp_s(release))
     assert rest is not None and rest - stamp_s(release) < 0.2
