@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import importlib.util
+import re
 import subprocess
 import sys
 import time
@@ -37,12 +39,45 @@ _MODULES = ("services/bridge/backend.py", "services/bridge/handover_backend.py",
 STATES = ("rest", "held_still", "transfer", "moving_empty", "rest_dropped")
 
 
+def _show(rev: str, path: str) -> str | None:
+    """`path`'s text at `rev`, or None when it is not there."""
+    done = subprocess.run(["git", "show", f"{rev}:{path}"], cwd=REPO, capture_output=True, text=True)
+    return done.stdout if done.returncode == 0 else None
+
+
+def _moved_module_path(rev: str, module: str) -> str | None:
+    """`rev`'s file of project module `module` when it no longer imports here, else None."""
+    try:
+        if importlib.util.find_spec(module) is not None:
+            return None
+    except ModuleNotFoundError:
+        pass
+    base = module.replace(".", "/")
+    return next((c for c in (f"{base}.py", f"{base}/__init__.py") if _show(rev, c) is not None), None)
+
+
+def _with_moved_imports(rev: str, paths: list[str]) -> list[str]:
+    """`paths` plus, transitively, `rev`'s files of the project modules they import that no
+    longer exist (a module moved since, e.g. ``robot_sim.baxter`` into ``handover_model``)."""
+    paths, k = list(paths), 0
+    while k < len(paths):
+        text = _show(rev, paths[k]) or ""
+        k += 1
+        for package, names in re.findall(r"^\s*from ((?:robot_sim|services|handover_model)(?:\.\w+)*) import ([\w, ]+)",
+                                         text, re.M):
+            for module in [package] + [f"{package}.{n.strip()}" for n in names.split(",") if n.strip()]:
+                path = _moved_module_path(rev, module)
+                if path is not None and path not in paths:
+                    paths.append(path)
+    return paths
+
+
 def baseline_package(rev: str, into: Path, name: str = "bridge_baseline") -> str:
     """Write `rev`'s tick files as package `name` under `into` (added to sys.path); returns
     the module name of its `services.bridge.backend`."""
     listing = subprocess.run(["git", "ls-tree", "--name-only", rev, "robot_sim/contact/"], cwd=REPO,
                              check=True, capture_output=True, text=True).stdout.split()
-    paths = [p for p in listing if p.endswith(".py")] + list(_MODULES)
+    paths = _with_moved_imports(rev, [p for p in listing if p.endswith(".py")] + list(_MODULES))
     dotted = {p[:-3].replace("/", "."): p[:-3].replace("/", "__") for p in paths}
     package = into / name
     package.mkdir(parents=True, exist_ok=True)
@@ -51,6 +86,9 @@ def baseline_package(rev: str, into: Path, name: str = "bridge_baseline") -> str
         text = subprocess.run(["git", "show", f"{rev}:{path}"], cwd=REPO, check=True,
                               capture_output=True, text=True).stdout
         for module, flat in sorted(dotted.items(), key=lambda kv: -len(kv[0])):
+            parent, _, leaf = module.rpartition(".")  # ``from robot_sim import scene``
+            text = re.sub(rf"^(\s*)from {re.escape(parent)} import {leaf}$", rf"\1from {name} import {flat} as {leaf}",
+                          text, flags=re.M)
             text = text.replace(f"from {module} import", f"from {name}.{flat} import")
         (package / (path[:-3].replace("/", "__") + ".py")).write_text(text)
     if str(into) not in sys.path:
