@@ -4,6 +4,8 @@ state and the release event out. All decisions are in `services.gripper.core`.
 Latency path (DESIGN §9: sensor sample in → grip command out, p99 ≤ 1 ms). Default: the
 runtime's subscriptions decode each payload in Zenoh's thread and wake the main thread,
 which steps the controller and publishes the command (it waits on the bus, not on a timer).
+That holds while it releases; at rest the wrench subscription rests too (`wakes_loop`): its
+samples wait in a ring channel, read at the 50 ms hold tick, and no Python runs per sample.
 `step_in_callback = true` instead runs a due step and publishes its command inside the
 wrist-wrench callback, saving that thread wake-up; measured side by side
 (tests/bench/test_bench_gripper_bus.py) it gains nothing on the median and nothing reliable
@@ -227,7 +229,7 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
                             core.set_request(rx.msg.grip_request)
                     episode_id = rx.msg.episode_id
                     heard_supervisor = True
-                if queued is not None:  # at rest a wrench sample changes nothing: no wake for it
+                if queued is not None:  # at rest a wrench sample changes nothing: it waits, read at the tick
                     queued[0].wakes_loop = core.releasing
                 if node.should_stop:
                     break

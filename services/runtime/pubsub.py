@@ -56,6 +56,8 @@ class SubscriptionStats:
         rejected: payloads dropped because they did not decode.
         seq_gaps: messages missed according to the publishers' sequence numbers.
         overflowed: accepted messages dropped because the queue was full.
+        duplicates: exact copies (source, seq, stamp) dropped: a waking subscription gets
+            some twice across a switch between resting and waking (`wakes_loop`).
     """
 
     received: int = 0
@@ -63,6 +65,7 @@ class SubscriptionStats:
     rejected: int = 0
     seq_gaps: int = 0
     overflowed: int = 0
+    duplicates: int = 0
 
 
 class TypedSubscription(Generic[M]):
@@ -75,6 +78,9 @@ class TypedSubscription(Generic[M]):
     Two ways in, chosen by `wake`:
     - ``wake=True``: a Zenoh callback decodes each sample on Zenoh's thread, queues it and wakes
       the node's `wait()` (for the few keys a loop must react to at once: stops, releases).
+      A loop may rest such a subscription (`wakes_loop = False`, the gripper while it does not
+      release): its samples then wait in a ring channel as with ``wake=False``, and no Python
+      runs per sample until it wakes again.
     - ``wake=False``: samples wait in a Zenoh ring channel (bounded, oldest dropped, no Python
       and no GIL on Zenoh's thread) and are decoded by the reader when it calls `latest()`,
       `drain()`, `age_s()` or `stats`. For streams a loop reads at its own tick this removes a
@@ -88,9 +94,12 @@ class TypedSubscription(Generic[M]):
         # The simulation clock reads every stream at its steps: no callbacks (`_release`).
         wake = wake and not (node.clock.is_sim and node.clock_role != "observer" and not wall_time)
         self.wake = wake
-        #: ``wake=True`` only: False keeps queueing samples without waking the loop (a loop
-        #: at rest that will read them at its next tick).
-        self.wakes_loop = wake
+        self._wakes_loop = wake
+        #: ``wake=True`` at rest: the ring channel its samples wait in (see `wakes_loop`).
+        self._resting: zenoh.Subscriber[Any] | None = None
+        #: Once it has rested: the exact keys of recent messages, to drop copies.
+        self._seen: deque[tuple[str, int, int]] | None = None
+        self._seen_set: set[tuple[str, int, int]] = set()
         self.key = topic.key(node.profile.prefix)
         self._stats = SubscriptionStats()
         self._node = node
@@ -119,27 +128,67 @@ class TypedSubscription(Generic[M]):
             with self._pump_lock:
                 self._accept(sample, 0.0)
             return
-        if self._accept(sample, time.monotonic()) and self.wakes_loop:
+        rx = time.monotonic()
+        with self._pump_lock:
+            accepted = self._accept(sample, rx)
+        if accepted and self._wakes_loop:
             self._node._notify()
+
+    @property
+    def wakes_loop(self) -> bool:
+        """``wake=True``: whether each sample wakes the loop now."""
+        return self._wakes_loop
+
+    @wakes_loop.setter
+    def wakes_loop(self, on: bool) -> None:
+        """Rest a waking subscription (False: its samples wait in a ring channel, read at the
+        loop's next tick, no Python per sample) or wake it again (True: what waited is taken in
+        first). Nothing is lost across a switch; a sample that reached both ways counts once.
+        Call from the reader's thread; a no-op for ``wake=False``."""
+        on = bool(on)
+        if not self.wake or on == self._wakes_loop:
+            return
+        session, size = self._node.session, self._queue.maxlen or 1
+        if self._seen is None:
+            self._seen = deque(maxlen=2 * size)
+        if on:  # the callback first, then what waited (samples in between arrive both ways);
+            # the lock keeps the callback from taking a newer sample before the older ones
+            with self._pump_lock:
+                self._subscriber = session.declare_subscriber(self.key, self._on_sample)
+                self._wakes_loop = True
+                ring, self._resting = self._resting, None
+                if ring is not None:
+                    self._drain_ring(ring)
+            if ring is not None:
+                _undeclare(ring)
+        else:  # the ring first, then no more callbacks
+            self._resting = session.declare_subscriber(self.key, zenoh.handlers.RingChannel(size))
+            self._wakes_loop = False
+            callback, self._subscriber = self._subscriber, self._resting
+            _undeclare(callback)
+
+    def _drain_ring(self, ring: Any) -> None:
+        """Take in every sample waiting in `ring` (pump lock held)."""
+        try_recv = ring.try_recv
+        while True:
+            try:
+                sample = try_recv()
+            except Exception:  # noqa: BLE001 - shutdown: the session closed under us
+                return
+            if sample is None:
+                return
+            self._accept(sample, time.monotonic())
 
     def _pump(self) -> None:
         """Take in what waits in the ring channel (``wake=False`` only; reader's thread), and
         on the simulation clock what was stamped before now."""
-        if self.wake:
+        if self.wake and self._resting is None:
             if self._sim_clock is not None:
                 with self._pump_lock:
                     self._release()
             return
         with self._pump_lock:
-            try_recv = self._subscriber.try_recv
-            while True:
-                try:
-                    sample = try_recv()
-                except Exception:  # noqa: BLE001 - shutdown: the session closed under us
-                    return
-                if sample is None:
-                    break
-                self._accept(sample, time.monotonic())
+            self._drain_ring(self._subscriber)
             if self._sim_clock is not None:
                 self._release()
 
@@ -189,8 +238,17 @@ class TypedSubscription(Generic[M]):
             self._take(item)
 
     def _take(self, item: Received[M]) -> None:
-        """Count and queue one decoded message."""
+        """Count and queue one decoded message (an exact copy of a recent one is dropped)."""
         stats, msg = self._stats, item.msg
+        if self._seen is not None:
+            key = (msg.source, msg.seq, msg.stamp_ns)
+            if key in self._seen_set:
+                stats.duplicates += 1
+                return
+            if len(self._seen) == self._seen.maxlen:
+                self._seen_set.discard(self._seen[0])
+            self._seen.append(key)
+            self._seen_set.add(key)
         last = self._last_seq.get(msg.source)
         if last is not None and msg.seq > last + 1:
             stats.seq_gaps += msg.seq - last - 1
@@ -236,10 +294,16 @@ class TypedSubscription(Generic[M]):
         return now - self._latest.rx_monotonic
 
     def undeclare(self) -> None:
-        try:
-            self._subscriber.undeclare()
-        except Exception:  # noqa: BLE001 - best-effort close: already closed with the session
-            pass
+        _undeclare(self._subscriber)
+        if self._resting is not None and self._resting is not self._subscriber:
+            _undeclare(self._resting)
+
+
+def _undeclare(subscriber: Any) -> None:
+    try:
+        subscriber.undeclare()
+    except Exception:  # noqa: BLE001 - best-effort close: already closed with the session
+        pass
 
 
 class TypedPublisher(Generic[M]):

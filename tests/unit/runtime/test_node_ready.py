@@ -72,3 +72,82 @@ def test_only_waking_subscriptions_wake_wait(bus):
         _put_stop(profile, peer, 1)
         assert wait_until(lambda: loud.stats.accepted == 1, 5.0)
         assert node.wait(0.05) is True
+
+
+def test_a_rested_subscription_runs_no_python_per_sample_and_catches_up_in_order(bus):
+    """``wakes_loop = False``: samples wait in a ring channel (nothing decoded, no wake) until
+    the loop reads them or wakes the subscription again; then they come first, in order."""
+    profile, peer = bus
+    with ServiceNode("probe5", profile, install_signal_handlers=False) as node:
+        sub = node.subscribe(topics.MOTION_STOP)
+        node.ready()
+        assert wait_until(lambda: "probe5" in alive_services(peer, profile.prefix, 0.3), 5.0)
+        node.wait(0.0)
+        sub.wakes_loop = False
+        for seq in range(3):
+            _put_stop(profile, peer, seq)
+        peer.put(topics.MOTION_STOP.key(profile.prefix), b"\xc1 not msgpack")
+        assert node.wait(0.3) is False, "a sample woke a loop at rest"
+        assert sub._stats.received == 0, "a sample was taken in by a callback while at rest"
+        sub.wakes_loop = True  # what waited is taken in now, before anything newer
+        assert sub._stats.received == 4
+        _put_stop(profile, peer, 3)
+        assert node.wait(5.0) is True
+        assert [rx.msg.seq for rx in sub.drain()] == [0, 1, 2, 3]
+        assert sub.stats.rejected == 1 and sub.stats.duplicates == 0
+        sub.wakes_loop = False
+        _put_stop(profile, peer, 4)
+        assert wait_until(lambda: sub.latest() is not None and sub.latest().msg.seq == 4, 5.0)  # read at a tick
+
+
+def test_switching_rest_and_wake_under_a_stream_loses_and_repeats_nothing(bus):
+    """A 1 kHz stream while the reader rests and wakes its subscription 40 times: every
+    message is taken in exactly once, in order, with no sequence gap."""
+    import threading
+
+    profile, peer = bus
+    n = 1500
+    with ServiceNode("probe6", profile, install_signal_handlers=False) as node:
+        sub = node.subscribe(topics.MOTION_STOP, queue_size=2048)
+        node.ready()
+        assert wait_until(lambda: "probe6" in alive_services(peer, profile.prefix, 0.3), 5.0)
+
+        def send() -> None:
+            for seq in range(n):
+                _put_stop(profile, peer, seq)
+                time.sleep(0.001)
+
+        sender = threading.Thread(target=send)
+        sender.start()
+        got = []
+        while sender.is_alive():
+            sub.wakes_loop = not sub.wakes_loop
+            time.sleep(0.02)
+            got += [rx.msg.seq for rx in sub.drain()]
+        sender.join()
+        sub.wakes_loop = True
+        assert wait_until(lambda: (got.extend(rx.msg.seq for rx in sub.drain()) or got[-1:] == [n - 1]), 5.0)
+        assert got == list(range(n))
+        assert sub.stats.seq_gaps == 0 and sub.stats.overflowed == 0
+
+
+def test_only_exact_copies_are_dropped_once_a_subscription_has_rested(bus):
+    """Across a switch a sample may reach both ways: the exact copy (source, seq, stamp) is
+    dropped and counted; a restarted publisher's message with an old seq but a new stamp is
+    not a copy."""
+    from services.runtime.pubsub import Received
+
+    profile, _peer = bus
+    with ServiceNode("probe7", profile, install_signal_handlers=False) as node:
+        sub = node.subscribe(topics.MOTION_STOP)
+        node.ready()
+        sub.wakes_loop = False
+        sub.wakes_loop = True
+
+        def stop(seq: int, stamp_ns: int):
+            return topics.MOTION_STOP.type(seq=seq, stamp_ns=stamp_ns, source="bridge", reason="t")
+
+        for msg in (stop(7, 1_000), stop(7, 1_000), stop(8, 2_000), stop(7, 3_000)):
+            sub._take(Received(msg, 0.0))
+        assert [(rx.msg.seq, rx.msg.stamp_ns) for rx in sub.drain()] == [(7, 1_000), (8, 2_000), (7, 3_000)]
+        assert sub.stats.duplicates == 1
