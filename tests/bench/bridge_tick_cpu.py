@@ -18,6 +18,7 @@ Run: python -m tests.bench.bridge_tick_cpu [--rev 9acd660] [--rounds 5] [--perio
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
 import importlib.util
 import re
@@ -39,6 +40,7 @@ _MODULES = ("services/bridge/backend.py", "services/bridge/handover_backend.py",
 STATES = ("rest", "held_still", "transfer", "moving_empty", "rest_dropped")
 
 
+@functools.lru_cache(maxsize=None)
 def _show(rev: str, path: str) -> str | None:
     """`path`'s text at `rev`, or None when it is not there."""
     done = subprocess.run(["git", "show", f"{rev}:{path}"], cwd=REPO, capture_output=True, text=True)
@@ -83,8 +85,9 @@ def baseline_package(rev: str, into: Path, name: str = "bridge_baseline") -> str
     package.mkdir(parents=True, exist_ok=True)
     (package / "__init__.py").write_text("")
     for path in paths:
-        text = subprocess.run(["git", "show", f"{rev}:{path}"], cwd=REPO, check=True,
-                              capture_output=True, text=True).stdout
+        text = _show(rev, path)
+        if text is None:
+            raise FileNotFoundError(f"{path} is not in revision {rev}")
         for module, flat in sorted(dotted.items(), key=lambda kv: -len(kv[0])):
             parent, _, leaf = module.rpartition(".")  # ``from robot_sim import scene``
             text = re.sub(rf"^(\s*)from {re.escape(parent)} import {leaf}$", rf"\1from {name} import {flat} as {leaf}",

@@ -22,7 +22,7 @@ import sys
 
 import pytest
 
-from services.launcher.router import READY
+from services.launcher.processes import RouterProcess
 from services.runtime.testing import interrupt_then_kill, loopback_profile
 from services.runtime.zenoh_config import zenoh_config_dict
 from services.runtime.zenoh_threads import ONE_WORKER_THREAD, ZENOH_RUNTIME_ENV
@@ -75,24 +75,12 @@ sys.stdin.read()  # until the bench closes our stdin
 """
 
 
-def _router(profile) -> subprocess.Popen:
-    proc = subprocess.Popen([sys.executable, "-m", "services.launcher.router"], stdin=subprocess.PIPE,
-                            stdout=subprocess.PIPE, text=True)
-    assert proc.stdin is not None and proc.stdout is not None
-    proc.stdin.write(json.dumps(zenoh_config_dict(profile, "router")))
-    proc.stdin.close()
-    line = proc.stdout.readline()
-    if not line.startswith(READY):
-        interrupt_then_kill(proc, 5.0)
-        raise AssertionError(f"router did not start: {line!r}")
-    return proc
-
-
 def test_put_cost_hot_against_paced() -> None:
     profile = loopback_profile()
     port = profile.endpoint.rsplit(":", 1)[1]
     env = dict(os.environ, **{ZENOH_RUNTIME_ENV: ONE_WORKER_THREAD})
-    router = _router(profile)
+    router = RouterProcess(json.dumps(zenoh_config_dict(profile, "router")), verbose=False)
+    router.start()
     readers: list[subprocess.Popen] = []
     results: dict[str, list[dict]] = {"puts": [], "wake only": []}
     try:
@@ -110,7 +98,7 @@ def test_put_cost_hot_against_paced() -> None:
             if reader.stdin is not None:
                 reader.stdin.close()
             interrupt_then_kill(reader, 5.0)
-        interrupt_then_kill(router, 5.0)
+        router.stop()
     median = {v: {k: statistics.median(r[k] for r in runs) for k in runs[0]} for v, runs in results.items()}
     save("put_cold", {"rounds": results, "median": median})
     rows = [(v, f"{m['hot_us']:.1f}", f"{m['paced_thread_us']:.0f}", f"{m['paced_process_us']:.0f}")
