@@ -4,6 +4,7 @@ processes (a busy loop pinned beside a hog, and a stopped one)."""
 from __future__ import annotations
 
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -167,13 +168,26 @@ def test_the_watchdog_excuses_a_starved_silence_up_to_its_bound_but_never_a_lost
     assert [f.service for f in plain.check(0.26)] == ["bridge"]
 
 
-_SPIN = "import os, sys\nos.nice(int(sys.argv[1]))\nwhile True:\n    pass\n"
+_SPIN = "import os, sys\nos.nice(int(sys.argv[1]))\nos.write(1, b'.')\nwhile True:\n    pass\n"
 
 
-def _spinner(nice: int, cpu: int) -> subprocess.Popen:
-    proc = subprocess.Popen([sys.executable, "-c", _SPIN, str(nice)])
-    os.sched_setaffinity(proc.pid, {cpu})
+def _spinner(nice: int, cpu: int | None = None) -> subprocess.Popen:
+    """A busy loop at niceness `nice`, on CPU `cpu` alone when given (wait for it with
+    `_wait_spinning`)."""
+    proc = subprocess.Popen([sys.executable, "-c", _SPIN, str(nice)], stdout=subprocess.PIPE)
+    if cpu is not None:
+        os.sched_setaffinity(proc.pid, {cpu})
     return proc
+
+
+def _wait_spinning(procs: list[subprocess.Popen], timeout_s: float = 30.0) -> None:
+    """Until every spinner has started its loop (its one byte on stdout): a spinner still
+    starting up (reading its modules after a fresh install) is not yet on the run queue."""
+    deadline = time.monotonic() + timeout_s
+    for proc in procs:
+        assert proc.stdout is not None
+        ready, _, _ = select.select([proc.stdout], [], [], max(0.0, deadline - time.monotonic()))
+        assert ready and proc.stdout.read(1) == b".", f"spinner {proc.pid} did not start within {timeout_s:g} s"
 
 
 @pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="needs Linux CPU affinity")
@@ -181,7 +195,8 @@ def test_a_real_starved_process_is_excused_and_a_stopped_one_is_not():
     cpu = sorted(os.sched_getaffinity(0))[0]
     hog, starving, stopped = _spinner(0, cpu), _spinner(19, cpu), _spinner(0, cpu)
     try:
-        time.sleep(0.3)
+        _wait_spinning([hog, starving, stopped])
+        time.sleep(0.1)
         stopped.send_signal(signal.SIGSTOP)
         judge = StarvationJudge()
         t0 = time.monotonic()
@@ -198,6 +213,8 @@ def test_a_real_starved_process_is_excused_and_a_stopped_one_is_not():
             proc.send_signal(signal.SIGCONT)
             proc.kill()
             proc.wait(5.0)
+            if proc.stdout is not None:
+                proc.stdout.close()
 
 
 def test_a_starved_delivery_path_excuses_every_service_but_a_running_one_excuses_none():
@@ -273,11 +290,12 @@ def test_a_silence_on_a_machine_with_cpu_to_spare_is_not_excused():
 
 @pytest.mark.skipif(not os.path.exists("/proc/pressure/cpu"), reason="needs the kernel's CPU pressure (PSI)")
 def test_on_a_saturated_machine_a_sleeping_process_is_excused_and_a_stopped_one_is_not():
-    hogs = [subprocess.Popen([sys.executable, "-c", _SPIN, "0"]) for _ in range(len(os.sched_getaffinity(0)) + 1)]
+    hogs = [_spinner(0) for _ in range(len(os.sched_getaffinity(0)) + 1)]
     sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     stopped = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
-        time.sleep(0.3)
+        _wait_spinning(hogs)
+        time.sleep(0.1)
         stopped.send_signal(signal.SIGSTOP)
         judge = StarvationJudge()
         t0 = time.monotonic()
@@ -294,6 +312,8 @@ def test_on_a_saturated_machine_a_sleeping_process_is_excused_and_a_stopped_one_
             proc.send_signal(signal.SIGCONT)
             proc.kill()
             proc.wait(5.0)
+            if proc.stdout is not None:
+                proc.stdout.close()
 
 
 def test_a_stopped_or_gone_service_is_never_excused_by_a_busy_delivery_path_or_machine():
