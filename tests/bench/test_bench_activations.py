@@ -75,7 +75,7 @@ def _write_doc(census: Census, wake_us: float) -> None:
     lines = [table(rows(census), ("process", "threads", "runs/s", "core", "µs per run")), "",
              f"Idle stack, a {census.seconds:.0f} s window from 3 s after its episode. A bare Python "
              f"thread sleeping to a 100 Hz grid pays **{wake_us:.0f} µs** a wake on this machine in this "
-             f"run. With the Zenoh "
+             "run. With the Zenoh "
              f"workers' runs as they are ({zenoh_cores:.3f} core: a run there is a wake and little else) "
              f"and each of the Python threads' {python_runs:.0f} runs a second costing only such a bare "
              f"wake, the stack would use **{floor:.2f} core** before any of its Python work; its Python "
