@@ -177,12 +177,10 @@ class TypedSubscription(Generic[M]):
             self._accept(sample, time.monotonic())
 
     def _pump(self) -> None:
-        """Take in what waits in the ring channel (``wake=False`` only; reader's thread), and
-        on the simulation clock what was stamped before now."""
+        """Take in what waits in the ring channel (``wake=False``, or a waking subscription at
+        rest; reader's thread), and on the simulation clock what was stamped before now (a
+        subscription paced by it never wakes)."""
         if self.wake and self._resting is None:
-            if self._sim_clock is not None:
-                with self._pump_lock:
-                    self._release()
             return
         with self._pump_lock:
             self._drain_ring(self._subscriber)

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import re
+import sys
 import time
 from collections import defaultdict
 from dataclasses import dataclass
@@ -30,16 +31,17 @@ ZENOH_WORKER = re.compile(r"^(app|rx|tx|acc|net)-\d+$")
 KINDS = ("Python main thread", "other Python threads", "Zenoh workers", "other native threads")
 
 
-def thread_kind(pid: int, tid: int, comm: str) -> str:
-    """One of `KINDS` for thread `tid` (named `comm`) of process `pid`. Python names no thread
-    of its own but the process (``python``): the main thread is the one whose id is the
-    process's; the others are the heartbeat, zenoh-python's callback threads, the launcher's
-    output relays."""
+def thread_kind(pid: int, tid: int, comm: str, main_comm: str) -> str:
+    """One of `KINDS` for thread `tid` (named `comm`) of process `pid`, whose main thread is
+    named `main_comm`. Python names no thread of its own: they keep the process's name
+    (``python``, or a console script's: ``handover-up``), so the main thread is the one whose id
+    is the process's and the other Python threads (the heartbeat, zenoh-python's callback
+    threads, the launcher's output relays) are those named as it is."""
     if ZENOH_WORKER.match(comm):
         return "Zenoh workers"
-    if comm == "python" or comm.startswith("python"):
-        return "Python main thread" if tid == pid else "other Python threads"
-    return "other native threads"
+    if tid == pid:
+        return "Python main thread"
+    return "other Python threads" if comm == main_comm else "other native threads"
 
 
 @dataclass(frozen=True)
@@ -63,6 +65,10 @@ def read_threads(pid: int, proc_root: str = "/proc") -> dict[int, tuple[str, Thr
         tasks = list(Path(f"{proc_root}/{pid}/task").iterdir())
     except OSError:
         return out
+    try:
+        main_comm = Path(f"{proc_root}/{pid}/comm").read_text().strip()
+    except OSError:
+        return out
     for task in tasks:
         try:
             comm = (task / "comm").read_text().strip()
@@ -70,7 +76,7 @@ def read_threads(pid: int, proc_root: str = "/proc") -> dict[int, tuple[str, Thr
         except (OSError, ValueError):
             continue
         tid = int(task.name)
-        out[tid] = (thread_kind(pid, tid, comm), ThreadTotals(int(exec_ns) / 1e9, int(runs)))
+        out[tid] = (thread_kind(pid, tid, comm, main_comm), ThreadTotals(int(exec_ns) / 1e9, int(runs)))
     return out
 
 
@@ -143,25 +149,46 @@ def rows(census: Census) -> list[tuple[str, ...]]:
     for kind, (cores, runs) in sorted(census.by_kind().items(), key=lambda kv: -kv[1][0]):
         if runs >= 0.5:
             out.append(("**all**", kind, f"{runs:.0f}", f"{cores:.3f}", f"{cores / runs * 1e6:.0f}"))
-    out.append(("**all**", "**every thread**", f"{census.total_runs_per_s:.0f}", f"{census.total_cores:.3f}",
-                f"{census.total_cores / census.total_runs_per_s * 1e6:.0f}"))
+    runs = census.total_runs_per_s
+    out.append(("**all**", "**every thread**", f"{runs:.0f}", f"{census.total_cores:.3f}",
+                f"{census.total_cores / runs * 1e6:.0f}" if runs > 0 else "—"))
     return out
+
+
+def stack_processes(launcher_pid: int) -> dict[str, int]:
+    """The launcher and its children (name → pid): a service by its module (``bridge``), the
+    router as ``router``. Children that end while listed are left out.
+
+    Raises:
+        psutil.NoSuchProcess: no process `launcher_pid`.
+        psutil.Error: its children cannot be listed (e.g. another user's process).
+    """
+    launcher = psutil.Process(launcher_pid)
+    processes = {"launcher": launcher.pid}
+    for child in launcher.children():
+        try:
+            argv = child.cmdline()
+        except psutil.NoSuchProcess:
+            continue
+        module = next((a for a in argv if a.startswith("services.")), child.name())
+        processes[module.removeprefix("services.").replace("launcher.", "")] = child.pid
+    return processes
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--launcher-pid", type=int, required=True, help="pid of a running handover-up")
-    parser.add_argument("--seconds", type=float, default=20.0)
+    parser.add_argument("--seconds", type=float, default=20.0, help="length of the window, s (> 0)")
     args = parser.parse_args(argv)
+    if not args.seconds > 0:
+        parser.error(f"--seconds must be > 0, got {args.seconds:g}")
     try:
-        launcher = psutil.Process(args.launcher_pid)
-        processes = {"launcher": launcher.pid}
-        for child in launcher.children():
-            argv_child = child.cmdline()
-            module = next((a for a in argv_child if a.startswith("services.")), child.name())
-            processes[module.removeprefix("services.").replace("launcher.", "")] = child.pid
+        processes = stack_processes(args.launcher_pid)
+    except psutil.NoSuchProcess:
+        parser.error(f"no process {args.launcher_pid}: pass the pid of a running handover-up")
     except psutil.Error as exc:
-        parser.exit(2, f"activation_census: no process {args.launcher_pid}: {exc}\n")
+        sys.stderr.write(f"activation_census: cannot list the processes of {args.launcher_pid}: {exc}\n")
+        return 1
     census = take_census(processes, args.seconds)
     for row in rows(census):
         print(" | ".join(row))

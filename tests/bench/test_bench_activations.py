@@ -4,9 +4,9 @@ costs on the machine in the same run. Regenerates the table of ``docs/performanc
 its ``activations-table`` markers, its figure ``docs/img/idle_by_thread_kind.png`` and
 ``out/bench/activations.json``.
 
-The census must account for the stack's CPU as psutil measures it over the same window (the
-check that no process or thread is missed), and every service must show its main thread and
-its Zenoh worker running.
+The census must account for the CPU psutil measures over the same window for the launcher
+and every process under it, found afresh (the check that no process or thread is missed),
+and every service must show its main thread and its Zenoh worker running.
 
 Run: ``python -m pytest tests/bench/test_bench_activations.py -m bench -s`` (about a minute;
 alone on the machine).
@@ -40,12 +40,17 @@ IDLE_S = float(os.environ.get("HANDOVER_CPU_IDLE_S", "20"))
 SERVICES = ("bridge", "motion", "gripper", "planner", "tracker", "supervisor", "recorder")
 
 
-def _cpu_s(procs: dict[str, psutil.Process]) -> float:
+def _cpu_s(procs: list[psutil.Process]) -> float:
     total = 0.0
-    for proc in procs.values():
+    for proc in procs:
         times = proc.cpu_times()
         total += times.user + times.system
     return total
+
+
+def _revision() -> str:
+    done = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=REPO, capture_output=True, text=True)
+    return done.stdout.strip() or "unknown"
 
 
 def _idle_census(tmp: Path) -> tuple[Census, float]:
@@ -60,10 +65,12 @@ def _idle_census(tmp: Path) -> tuple[Census, float]:
         _wait_for(out_path, _ALIVE, proc, 120.0)
         _wait_for([out_path, tmp / "handover-census-logs" / "supervisor.log"], _EPISODE_ENDED, proc, 120.0)
         time.sleep(3.0)
-        procs = _processes(psutil.Process(proc.pid), out_path.read_text(errors="replace"))
-        cpu0, t0 = _cpu_s(procs), time.monotonic()
+        launcher = psutil.Process(proc.pid)
+        procs = _processes(launcher, out_path.read_text(errors="replace"))
+        every = [launcher, *launcher.children(recursive=True)]
+        cpu0, t0 = _cpu_s(every), time.monotonic()
         census = take_census({name: p.pid for name, p in procs.items()}, IDLE_S)
-        psutil_cores = (_cpu_s(procs) - cpu0) / (time.monotonic() - t0)
+        psutil_cores = (_cpu_s(every) - cpu0) / (time.monotonic() - t0)
     finally:
         interrupt_then_kill(proc, 30.0)
     return census, psutil_cores
@@ -76,7 +83,8 @@ def _write_doc(census: Census, wake_us: float) -> None:
     python_cores = sum(cores for kind, (cores, _r) in kinds.items() if "Python" in kind)
     floor = zenoh_cores + python_runs * wake_us * 1e-6
     lines = [table(rows(census), ("process", "threads", "runs/s", "core", "µs per run")), "",
-             f"Idle stack, a {census.seconds:.0f} s window from 3 s after its episode. A bare Python "
+             f"Idle stack at `{_revision()}`, {time.strftime('%Y-%m-%d %H:%M')}, a {census.seconds:.0f} s "
+             f"window from 3 s after its episode. A bare Python "
              f"thread sleeping to a 100 Hz grid pays **{wake_us:.0f} µs** a wake on this machine in this "
              "run. With the Zenoh "
              f"workers' runs as they are ({zenoh_cores:.3f} core: a run there is a wake and little else) "
