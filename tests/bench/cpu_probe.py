@@ -155,6 +155,31 @@ def _processes(launcher: psutil.Process, text: str) -> dict[str, psutil.Process]
     return procs
 
 
+def start_stack(tmp_dir: Path, job: str, run_id: str, extra_args: list[str] | None = None,
+                checkout: Path | None = None) -> tuple[subprocess.Popen, Path]:
+    """Start `handover-up --job JOB --run-id RUN_ID` recording into `tmp_dir`, its output to a
+    file there; returns the launcher's process and that file (stop it with
+    `interrupt_then_kill`). `checkout`: run another source tree (see `run_stack`)."""
+    out_path = tmp_dir / f"handover-up-{job}.log"
+    cmd = [sys.executable, "-m", "services.launcher", "--port", "auto", "--job", job,
+           "--recording-dir", str(tmp_dir), "--run-id", run_id, *(extra_args or [])]
+    with open(out_path, "w") as out:
+        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+                                cwd=checkout)
+    return proc, out_path
+
+
+def wait_idle(proc: subprocess.Popen, out_path: Path, tmp_dir: Path, run_id: str, timeout_s: float = 120.0,
+              settle_s: float = 3.0) -> str:
+    """Until a `--job none` stack is idle: every service alive, the supervisor's episode ended
+    (it runs the profile's episode whatever the launcher's job) and `settle_s` more; returns the
+    launcher's output so far."""
+    _wait_for(out_path, _ALIVE, proc, timeout_s)
+    _wait_for([out_path, tmp_dir / f"handover-{run_id}-logs" / "supervisor.log"], _EPISODE_ENDED, proc, timeout_s)
+    time.sleep(settle_s)
+    return out_path.read_text(errors="replace")
+
+
 def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: float = 3.0,
               extra_args: list[str] | None = None, timeout_s: float = 120.0,
               checkout: Path | None = None) -> CpuWindow:
@@ -168,22 +193,14 @@ def run_stack(tmp_dir: Path, job: str = "none", idle_s: float = 20.0, settle_s: 
     measured in the same sitting); its modules shadow the installed ones (``python -m`` puts the
     working directory first on the path, and the launcher's children inherit it).
     """
-    out_path = tmp_dir / f"handover-up-{job}.log"
-    cmd = [sys.executable, "-m", "services.launcher", "--port", "auto", "--job", job,
-           "--recording-dir", str(tmp_dir), "--run-id", f"cpu-{job}", *(extra_args or [])]
     t_launch = time.monotonic()
-    with open(out_path, "w") as out:
-        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-                                cwd=checkout)
+    proc, out_path = start_stack(tmp_dir, job, f"cpu-{job}", extra_args, checkout)
     try:
         launcher = psutil.Process(proc.pid)
-        text = _wait_for(out_path, _ALIVE, proc, timeout_s)
         if job == "none":
-            _wait_for([out_path, tmp_dir / f"handover-cpu-{job}-logs" / "supervisor.log"], _EPISODE_ENDED, proc,
-                      timeout_s)
-            time.sleep(settle_s)
-            text = out_path.read_text(errors="replace")
+            text = wait_idle(proc, out_path, tmp_dir, f"cpu-{job}", timeout_s, settle_s)
         else:
+            _wait_for(out_path, _ALIVE, proc, timeout_s)
             text = _wait_for(out_path, _EPISODE_START, proc, timeout_s)
         procs = _processes(launcher, text)
         before = {name: _cpu_s(p) for name, p in procs.items()}

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import os
 import subprocess
-import sys
 import time
 from pathlib import Path
 
@@ -25,9 +24,9 @@ import pytest
 
 from services.runtime.testing import interrupt_then_kill
 from tests.bench._report import save, table
-from tests.bench.activation_census import Census, rows, take_census
+from tests.bench.activation_census import Census, rows, stack_processes, take_census
 from tests.bench.cpu_plots import plot_census
-from tests.bench.cpu_probe import _ALIVE, _EPISODE_ENDED, _processes, _wait_for, wake_cost_us
+from tests.bench.cpu_probe import start_stack, wait_idle, wake_cost_us
 
 pytestmark = pytest.mark.bench
 
@@ -56,20 +55,14 @@ def _revision() -> str:
 def _idle_census(tmp: Path) -> tuple[Census, float]:
     """The census of the idle stack over `IDLE_S`, and psutil's CPU of the same processes
     over the same window (cores)."""
-    out_path = tmp / "up.log"
-    cmd = [sys.executable, "-m", "services.launcher", "--port", "auto", "--job", "none",
-           "--recording-dir", str(tmp), "--run-id", "census"]
-    with open(out_path, "w") as out:
-        proc = subprocess.Popen(cmd, stdout=out, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+    proc, out_path = start_stack(tmp, "none", "census")
     try:
-        _wait_for(out_path, _ALIVE, proc, 120.0)
-        _wait_for([out_path, tmp / "handover-census-logs" / "supervisor.log"], _EPISODE_ENDED, proc, 120.0)
-        time.sleep(3.0)
+        wait_idle(proc, out_path, tmp, "census")
         launcher = psutil.Process(proc.pid)
-        procs = _processes(launcher, out_path.read_text(errors="replace"))
+        procs = stack_processes(proc.pid)
         every = [launcher, *launcher.children(recursive=True)]
         cpu0, t0 = _cpu_s(every), time.monotonic()
-        census = take_census({name: p.pid for name, p in procs.items()}, IDLE_S)
+        census = take_census(procs, IDLE_S)
         psutil_cores = (_cpu_s(every) - cpu0) / (time.monotonic() - t0)
     finally:
         interrupt_then_kill(proc, 30.0)
