@@ -56,7 +56,12 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
         body_window_frames: body dimensions are medians over this many recent frames.
         weight_kg: receiver's body weight from the profile (a camera cannot weigh).
         object_mass_kg: object mass from the task description.
-        object_every_n_depth_frames: run object detection on every n-th depth frame.
+        object_every_n_depth_frames: run object detection on every n-th depth frame while
+            the object's position is wanted (the supervisor locating it, or no supervisor
+            heard: `services.tracker.core.object_wanted`).
+        object_rest_every_n_depth_frames: the same while the supervisor says nobody reads it
+            (idle between episodes, or the object already picked): 15 (2 Hz at 30 Hz) keeps
+            the newest estimate within the supervisor's 1 s freshness for the next locate.
         object_min_height_m, object_max_height_m: object points lie this high above the table.
         object_min_pixels: smallest blob taken for an object.
         floor_z_m: floor height in `base` (m).
@@ -104,6 +109,7 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
     weight_kg: float = 75.0
     object_mass_kg: float = 0.5
     object_every_n_depth_frames: int = 3
+    object_rest_every_n_depth_frames: int = 15
     object_min_height_m: float = 0.02
     object_max_height_m: float = 0.40
     object_min_pixels: int = 20
@@ -139,7 +145,9 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
             (1 <= self.body_window_frames <= 10000, "body_window_frames must be in 1..10000"),
             (0.0 <= self.weight_kg <= 400.0, "weight_kg must be in 0..400 kg"),
             (0.0 <= self.object_mass_kg <= 1000.0, "object_mass_kg must be in 0..1000 kg"),
-            (1 <= self.object_every_n_depth_frames <= 1000, "object_every_n_depth_frames must be >= 1"),
+            (1 <= self.object_every_n_depth_frames <= 1000, "object_every_n_depth_frames must be in 1..1000"),
+            (self.object_every_n_depth_frames <= self.object_rest_every_n_depth_frames <= 1000,
+             "object_rest_every_n_depth_frames must be in object_every_n_depth_frames..1000"),
             (
                 0.0 <= self.object_min_height_m < self.object_max_height_m <= 2.0,
                 "need 0 <= object_min_height_m < object_max_height_m <= 2 m",

@@ -9,6 +9,12 @@ state after every skeleton frame and for the object estimate after depth frames:
     pipe.on_skeleton(skeleton_frame)            # SkeletonFrame
     state = pipe.human_state(now_s)             # HumanEstimate
     detection = pipe.detect_object()            # ObjectDetection or None (not due yet)
+    pipe.set_object_wanted(object_wanted(...))  # full detection rate, or the rest rate
+
+Object detection runs on every `object_every_n_depth_frames`-th depth frame while somebody
+reads the object's position (the supervisor takes it in ``locate``, `object_wanted`), and on
+every `object_rest_every_n_depth_frames`-th otherwise: a detection and its depth image are
+most of the tracker's work, and the idle stack's largest single piece (issue 16).
 
 Hand pipeline per skeleton frame: raw skeleton hand → (a) lag correction against the human's
 point cloud of the latest depth frame (robot points removed) → (b) robot proximity hold.
@@ -90,6 +96,20 @@ class HumanEstimate:
     status: str = ""
 
 
+#: Supervisor phases in which it reads `perception/object` (it takes the object's position when
+#: it locates it; later phases use that position, the planner only the mass).
+OBJECT_PHASES = ("locate",)
+#: A supervisor state older than this (s) no longer says the object is not wanted: a tracker
+#: without a supervisor (perception alone, a replay, a lost supervisor) detects at full rate.
+SUPERVISOR_STATE_FRESH_S = 1.0
+
+
+def object_wanted(phase: str | None, state_age_s: float) -> bool:
+    """Whether the object's position is wanted now: no supervisor state heard (`phase` None),
+    a state older than `SUPERVISOR_STATE_FRESH_S` (s), or a phase of `OBJECT_PHASES`."""
+    return phase is None or state_age_s > SUPERVISOR_STATE_FRESH_S or phase in OBJECT_PHASES
+
+
 class TrackerPipeline:
     """Skeleton + depth + joint state → corrected human state and object estimate.
 
@@ -109,6 +129,10 @@ class TrackerPipeline:
         self._depth: DepthFrame | None = None
         self._depth_count = 0
         self._object_due = False
+        #: Depth frames between two detections now (`set_object_wanted`).
+        self._object_every_n = config.object_every_n_depth_frames
+        #: The depth frame (count) at which a detection last fell due (None: none yet).
+        self._object_due_frame: int | None = None
         self._q: np.ndarray | None = None
         self._q_t = 0.0
         self._robot_caps: list[Capsule] | None = None
@@ -134,8 +158,17 @@ class TrackerPipeline:
         """Latest depth frame."""
         self._depth = frame
         self._depth_count += 1
-        if (self._depth_count - 1) % self.config.object_every_n_depth_frames == 0:
+        last = self._object_due_frame
+        if last is None or self._depth_count - last >= self._object_every_n:
             self._object_due = True
+            self._object_due_frame = self._depth_count
+
+    def set_object_wanted(self, wanted: bool) -> None:
+        """Detect on every `object_every_n_depth_frames`-th depth frame when `wanted`, else on
+        every `object_rest_every_n_depth_frames`-th; counted from the last detection that fell
+        due, so a switch to the full rate detects on the next frame when that one is due."""
+        cfg = self.config
+        self._object_every_n = cfg.object_every_n_depth_frames if wanted else cfg.object_rest_every_n_depth_frames
 
     def on_skeleton(self, frame: SkeletonFrame) -> HumanEstimate:
         """Process a skeleton frame; returns the new human state."""

@@ -6,7 +6,8 @@ process from `robot/joint_state` and `sim/truth` (`services.tracker.sources`). R
 replay file instead, paced in real time, and publishes the same outputs, so the tracker runs
 without the simulator. Publishes `perception/human` on every skeleton frame
 (and at 10 Hz when frames stop coming, with ``tracked = False``) and `perception/object`
-whenever an object detection runs.
+whenever an object detection runs: at full rate while the newest `supervisor/state` wants
+the object (`core.object_wanted`), at the rest rate otherwise.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ from services.runtime.clock import SimClock
 from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.profile import Profile
 from services.tracker.config import TrackerConfig
-from services.tracker.core import HumanEstimate, TrackerPipeline, skeleton_frame_from_message
+from services.tracker.core import HumanEstimate, TrackerPipeline, object_wanted, skeleton_frame_from_message
 from services.tracker.objects import ObjectDetection
 from services.tracker.pointcloud import DepthFrame, depth_frame_from_message
 from services.tracker.process import tune_process
@@ -152,6 +153,8 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
     with ServiceNode("tracker", profile) as node:
         human_pub = node.publisher(T.HUMAN)
         object_pub = node.publisher(T.OBJECT)
+        # Read at each tick (never wakes the loop): the phase says whether anyone reads the object.
+        supervisor_state = node.subscribe(T.SUPERVISOR_STATE, queue_size=1, wake=False)
         inputs = _inputs(node, config, replay_path, replay_loop, pose, rig, object_pub)
         rate_hz = config.sim_kinect.rate_hz if isinstance(inputs, SimKinectInputs) else config.rate_hz
         log.info("tracker inputs: %s", "replay" if replay_path is not None else config.sensor,
@@ -163,6 +166,9 @@ def run_node(profile: Profile, config: TrackerConfig, replay_path: Path | None =
             if isinstance(clock, SimClock) and config.sim_clock_latency_s > 0.0:
                 clock.answer_early(config.sim_clock_latency_s)  # the clock steps on while this frame is computed
             now = node.clock.now_s()
+            state_rx = supervisor_state.latest()
+            pipe.set_object_wanted(object_wanted(state_rx.msg.phase if state_rx else None,
+                                                 now - state_rx.rx_monotonic if state_rx else 0.0))
             ended = not inputs.feed(feeder, now)  # a replay's end: its last frames still count
             det = pipe.detect_object()
             if det is not None:

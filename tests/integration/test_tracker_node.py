@@ -110,3 +110,43 @@ def test_a_replay_ends_by_itself_after_publishing_its_last_frame(bus, make_node,
     time.sleep(0.3)
     raw_x = [rx.msg.hand_raw_position_m[0] for rx in humans.drain() if rx.msg.tracked]
     assert raw_x and raw_x[-1] == pytest.approx(0.95), raw_x
+
+
+def test_the_object_is_detected_at_full_rate_only_while_the_supervisor_locates_it(bus, make_node):
+    """Issue 16: with a supervisor past ``locate`` the tracker detects the object on every 15th
+    depth frame (2 Hz at 30 Hz) instead of every 3rd; in ``locate``, and once the supervisor
+    has been silent for a second, every 3rd again. Depth frames are sent at 30 Hz for 3 s per
+    window: 90 frames, 6 detections resting, 30 at full rate."""
+    profile, router = bus
+    sim = KinectSim(seed=2, scenario=KinectScenario())
+    q = np.array(RIGHT_ARM_HOME_RAD)
+    frame = sim.step(0.0, q)
+    node = make_node()
+    objects = node.subscribe(T.OBJECT, queue_size=1000)
+    pubs = {t: node.publisher(t) for t in (T.SKELETON, T.DEPTH, T.JOINT_STATE, T.SUPERVISOR_STATE)}
+    with ServiceProcess("services.tracker", profile, name="tracker", args=["--sensor", "bus"]) as proc:
+        wait_alive(node.session, profile, {"tracker"}, timeout_s=30.0)
+
+        def detections(seconds: float, phase: str | None) -> int:
+            """Objects published while `seconds` of frames (and, with a `phase`, 20 Hz states) go out."""
+            objects.drain()
+            start = time.monotonic()
+            for k in range(round(seconds * 30)):
+                pubs[T.JOINT_STATE].put(names=list(RIGHT_ARM_JOINTS), position_rad=list(q), velocity_rad_s=[0.0] * 7)
+                pubs[T.DEPTH].put(**frame.depth_fields)
+                pubs[T.SKELETON].put(**frame.skeleton_fields)
+                if phase is not None and k % 2 == 0:
+                    pubs[T.SUPERVISOR_STATE].put(phase=phase)
+                time.sleep(max(0.0, start + (k + 1) / 30.0 - time.monotonic()))
+            time.sleep(0.2)  # the last frames' detections still on their way
+            return len(objects.drain())
+
+        detections(1.0, "reach")  # the tracker hears the supervisor
+        resting = detections(3.0, "reach")
+        locating = detections(3.0, "locate")
+        detections(1.5, None)  # the supervisor falls silent: after 1 s its last state says nothing
+        unsupervised = detections(3.0, None)
+        assert proc.proc.poll() is None, proc.log_text()
+    assert 3 <= resting <= 10, (resting, locating, unsupervised)
+    assert locating >= 20, (resting, locating, unsupervised)
+    assert unsupervised >= 20, (resting, locating, unsupervised)
