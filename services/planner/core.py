@@ -110,6 +110,21 @@ def plan_for_receiver(
     )
 
 
+#: Supervisor phases outside an episode: nobody reads a plan then (the supervisor reads the
+#: transfer target from `plan` to the end of `reach`, after a `pick` of a second and more).
+REST_PHASES = ("idle", "done", "failed", "protective_stop")
+#: A supervisor state older than this (s) no longer lets the planner rest: a planner without a
+#: supervisor (alone, a study, a lost supervisor) keeps its full rate.
+SUPERVISOR_STATE_FRESH_S = 1.0
+
+
+def planner_rests(phase: str | None, state_age_s: float) -> bool:
+    """Whether the planner may look at its inputs only now and then: the newest supervisor
+    state (`phase`, None before the first) is at most `SUPERVISOR_STATE_FRESH_S` (s) old and
+    outside an episode (`REST_PHASES`)."""
+    return phase is not None and state_age_s <= SUPERVISOR_STATE_FRESH_S and phase in REST_PHASES
+
+
 @dataclass(frozen=True)
 class PlanInputs:
     """The inputs a plan depends on, for deciding whether to replan."""

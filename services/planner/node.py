@@ -11,7 +11,7 @@ import logging
 from bus_schema import topics as T
 from handover_model import robots
 from services.planner.config import load_config
-from services.planner.core import PlannerService
+from services.planner.core import PlannerService, planner_rests
 from services.runtime import RateLimitedLog, ServiceNode, load_profile
 
 log = logging.getLogger("planner")
@@ -21,6 +21,9 @@ WAIT_S = 0.05
 #: The latest plan is published again this often (s), so that a frozen planner is noticed by
 #: the freshness of `planner/transfer` and a late subscriber gets the current plan.
 REPUBLISH_PERIOD_S = 0.2
+#: Wait between two looks while the supervisor is outside an episode (`core.planner_rests`):
+#: nobody reads a plan then, and a new episode's `pick` leaves it a second and more, s.
+REST_WAIT_S = 0.5
 
 
 def run(args: argparse.Namespace) -> int:
@@ -36,10 +39,13 @@ def run(args: argparse.Namespace) -> int:
         # message fewer).
         human_sub = node.subscribe(T.HUMAN, queue_size=4, wake=False)
         object_sub = node.subscribe(T.OBJECT, queue_size=4, wake=False)
+        supervisor_sub = node.subscribe(T.SUPERVISOR_STATE, queue_size=1, wake=False)
         log.info("planner ready: waiting for %s", T.HUMAN.key(profile.prefix))
         latest: dict | None = None
         last_put_s = 0.0
-        for _tick in node.loop(1.0 / WAIT_S):
+        loop = node.rate_loop(1.0 / WAIT_S)
+        rest_ticks = 0
+        for _tick in loop:
             human = human_sub.latest()
             obj = object_sub.latest()
             fields, note = service.step(
@@ -61,5 +67,9 @@ def run(args: argparse.Namespace) -> int:
                     log.log(logging.DEBUG if " changed by " in note else logging.INFO, note)
                 else:
                     notes.warning("plan", note)
-        log.info("planner stopping after %d plans", service.plans_made)
+            state = supervisor_sub.latest()
+            if planner_rests(state.msg.phase if state else None, now_s - state.rx_monotonic if state else 0.0):
+                rest_ticks += 1
+                loop.rest_until(now_s + REST_WAIT_S)
+        log.info("planner stopping after %d plans (%d ticks at rest)", service.plans_made, rest_ticks)
     return 0

@@ -18,6 +18,11 @@ from services.runtime.testing import BusRouter, ServiceProcess, client_session, 
 
 pytestmark = pytest.mark.integration
 
+def msgspec_fields(msg) -> dict:
+    """A message's fields by name."""
+    return {f: getattr(msg, f) for f in msg.__struct_fields__}
+
+
 TORSO = (float(scene.RECEIVER_TORSO_BASE_XY_M[0]), float(scene.RECEIVER_TORSO_BASE_XY_M[1]), 0.3)
 
 
@@ -95,3 +100,38 @@ def test_planner_process_answers_a_human_state_and_replans_when_the_receiver_mov
         finally:
             sub.undeclare()
             session.close()
+
+
+def test_the_planner_rests_outside_an_episode_and_wakes_for_the_next_one(bus, make_node):
+    """Issue 16: while the supervisor is outside an episode (``done``) the planner looks at its
+    inputs every 0.5 s, so it republishes its plan about twice a second instead of five times;
+    in an episode (``pick``), and once the supervisor has been silent for a second, five times
+    again. Human states go out at 30 Hz and supervisor states at 20 Hz for 3 s per window."""
+    profile, router = bus
+    node = make_node()
+    targets = node.subscribe(T.TRANSFER, queue_size=1000)
+    human_pub, state_pub = node.publisher(T.HUMAN), node.publisher(T.SUPERVISOR_STATE)
+    human = {k: v for k, v in msgspec_fields(_human(0)).items() if k not in ("seq", "stamp_ns", "source")}
+    with ServiceProcess("services.planner", profile, name="planner") as proc:
+        wait_alive(node.session, profile, {"planner"}, timeout_s=20.0)
+
+        def plans(seconds: float, phase: str | None) -> int:
+            """Transfer targets published while `seconds` of inputs go out."""
+            targets.drain()
+            start = time.monotonic()
+            for k in range(round(seconds * 30)):
+                human_pub.put(**human)
+                if phase is not None and k % 3 == 0:
+                    state_pub.put(phase=phase)
+                time.sleep(max(0.0, start + (k + 1) / 30.0 - time.monotonic()))
+            return len(targets.drain())
+
+        plans(1.0, "done")  # the first plan, and the planner hears the supervisor
+        resting = plans(3.0, "done")
+        in_episode = plans(3.0, "pick")
+        plans(1.5, None)  # the supervisor falls silent: after 1 s its last state says nothing
+        unsupervised = plans(3.0, None)
+        assert proc.proc.poll() is None, proc.log_text()
+    assert 4 <= resting <= 8, (resting, in_episode, unsupervised)
+    assert in_episode >= 12, (resting, in_episode, unsupervised)
+    assert unsupervised >= 12, (resting, in_episode, unsupervised)
