@@ -5,8 +5,9 @@ rendered, quantised and noised only at its first read: `DepthReadings.payload` (
 `DepthImage.depth_mm` bytes), `DepthReadings.mm` (uint16 mm) or `DepthReadings.metres`
 (float32 m, NaN = no reading, what the tracker computes from the payload). Drawing the
 noise of one 640 × 480 image costs about 1 ms of CPU on the 2-core machine: the tracker
-reads the depth of only every third frame while the receiver stands still (the object
-detection), so the simulated Kinect in its process draws only those (issue 16).
+reads the depth only on the object detection's frames while the receiver stands still
+(every third or every 15th, `services.tracker.core.object_wanted`), so the simulated Kinect
+in its process draws only those (issue 16).
 
 A frame carries what makes its readings, so they are the same whenever it is read and
 whether or not other frames were read:

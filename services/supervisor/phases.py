@@ -40,7 +40,11 @@ def human_ok(snap: Snapshot, fresh_s: float = HUMAN_FRESH_S) -> bool:
 
 
 def tick_locate(seq: Sequencer, snap: Snapshot, actions: Actions) -> None:
-    """Wait for a tracked receiver and the object on the table, then approach from above."""
+    """Wait for a tracked receiver and the object on the table, then approach from above.
+
+    The only phase that reads the object estimate: the tracker detects at full rate only in
+    the phases of `services.tracker.core.OBJECT_PHASES`, so a phase that reads `snap.obj` too
+    must join them."""
     ep, now = seq.episode, snap.now_s
     assert ep is not None
     obj_ok = snap.obj is not None and snap.obj.found and now - snap.obj_rx_s <= OBJECT_FRESH_S

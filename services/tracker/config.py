@@ -60,8 +60,9 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
             the object's position is wanted (the supervisor locating it, or no supervisor
             heard: `services.tracker.core.object_wanted`).
         object_rest_every_n_depth_frames: the same while the supervisor says nobody reads it
-            (idle between episodes, or the object already picked): 15 (2 Hz at 30 Hz) keeps
-            the newest estimate within the supervisor's 1 s freshness for the next locate.
+            (outside an episode, or the object already picked): 15 (2 Hz at 30 Hz) keeps the
+            newest estimate within the supervisor's 1 s freshness for the next locate; never
+            more often than `object_every_n_depth_frames` (the larger of the two is used).
         object_min_height_m, object_max_height_m: object points lie this high above the table.
         object_min_pixels: smallest blob taken for an object.
         floor_z_m: floor height in `base` (m).
@@ -146,8 +147,7 @@ class TrackerConfig(msgspec.Struct, frozen=True, kw_only=True, forbid_unknown_fi
             (0.0 <= self.weight_kg <= 400.0, "weight_kg must be in 0..400 kg"),
             (0.0 <= self.object_mass_kg <= 1000.0, "object_mass_kg must be in 0..1000 kg"),
             (1 <= self.object_every_n_depth_frames <= 1000, "object_every_n_depth_frames must be in 1..1000"),
-            (self.object_every_n_depth_frames <= self.object_rest_every_n_depth_frames <= 1000,
-             "object_rest_every_n_depth_frames must be in object_every_n_depth_frames..1000"),
+            (1 <= self.object_rest_every_n_depth_frames <= 1000, "object_rest_every_n_depth_frames must be in 1..1000"),
             (
                 0.0 <= self.object_min_height_m < self.object_max_height_m <= 2.0,
                 "need 0 <= object_min_height_m < object_max_height_m <= 2 m",

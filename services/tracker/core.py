@@ -165,10 +165,10 @@ class TrackerPipeline:
 
     def set_object_wanted(self, wanted: bool) -> None:
         """Detect on every `object_every_n_depth_frames`-th depth frame when `wanted`, else on
-        every `object_rest_every_n_depth_frames`-th; counted from the last detection that fell
+        every `object_rest_every_n_depth_frames`-th (never more often); counted from the last detection that fell
         due, so a switch to the full rate detects on the next frame when that one is due."""
-        cfg = self.config
-        self._object_every_n = cfg.object_every_n_depth_frames if wanted else cfg.object_rest_every_n_depth_frames
+        full_n = self.config.object_every_n_depth_frames
+        self._object_every_n = full_n if wanted else max(full_n, self.config.object_rest_every_n_depth_frames)
 
     def on_skeleton(self, frame: SkeletonFrame) -> HumanEstimate:
         """Process a skeleton frame; returns the new human state."""

@@ -10,7 +10,8 @@
   ``publish_depth``): a 150 kB image 30 times a second no longer crosses the bus to reach its
   only reader, and the stack has one process fewer (issue 16). The pipeline gets the depth
   in metres, made only when it reads them (`robot_sim.kinect.readings`): while the receiver
-  stands still, every third frame (the object detection);
+  stands still, only on the object detection's frames (every third while the supervisor
+  locates the object, every 15th otherwise: `core.object_wanted`);
 - `ReplayInputs`: a replay file, paced in real time.
 
 Each `feed(feeder, now_s)` hands the tick's inputs to the `services.tracker.node._Feeder`

@@ -105,8 +105,9 @@ def test_planner_process_answers_a_human_state_and_replans_when_the_receiver_mov
 def test_the_planner_rests_outside_an_episode_and_wakes_for_the_next_one(bus, make_node):
     """Issue 16: while the supervisor is outside an episode (``done``) the planner looks at its
     inputs every 0.5 s, so it republishes its plan about twice a second instead of five times;
-    in an episode (``pick``), and once the supervisor has been silent for a second, five times
-    again. Human states go out at 30 Hz and supervisor states at 20 Hz for 3 s per window."""
+    in an episode (``pick``), and once the supervisor has been silent for a second after a
+    ``done``, five times again. Human states go out at 30 Hz and supervisor states at 10 Hz
+    for 3 s per window."""
     profile, router = bus
     node = make_node()
     targets = node.subscribe(T.TRANSFER, queue_size=1000)
@@ -129,6 +130,7 @@ def test_the_planner_rests_outside_an_episode_and_wakes_for_the_next_one(bus, ma
         plans(1.0, "done")  # the first plan, and the planner hears the supervisor
         resting = plans(3.0, "done")
         in_episode = plans(3.0, "pick")
+        plans(1.0, "done")  # resting again: the last word before the silence
         plans(1.5, None)  # the supervisor falls silent: after 1 s its last state says nothing
         unsupervised = plans(3.0, None)
         assert proc.proc.poll() is None, proc.log_text()

@@ -115,8 +115,9 @@ def test_a_replay_ends_by_itself_after_publishing_its_last_frame(bus, make_node,
 def test_the_object_is_detected_at_full_rate_only_while_the_supervisor_locates_it(bus, make_node):
     """Issue 16: with a supervisor past ``locate`` the tracker detects the object on every 15th
     depth frame (2 Hz at 30 Hz) instead of every 3rd; in ``locate``, and once the supervisor
-    has been silent for a second, every 3rd again. Depth frames are sent at 30 Hz for 3 s per
-    window: 90 frames, 6 detections resting, 30 at full rate."""
+    has been silent for a second after a ``reach``, every 3rd again. Depth frames are sent at
+    30 Hz and states at 15 Hz for 3 s per window: 90 frames, 6 detections resting, 30 at full
+    rate."""
     profile, router = bus
     sim = KinectSim(seed=2, scenario=KinectScenario())
     q = np.array(RIGHT_ARM_HOME_RAD)
@@ -144,6 +145,7 @@ def test_the_object_is_detected_at_full_rate_only_while_the_supervisor_locates_i
         detections(1.0, "reach")  # the tracker hears the supervisor
         resting = detections(3.0, "reach")
         locating = detections(3.0, "locate")
+        detections(1.0, "reach")  # resting again: the last word before the silence
         detections(1.5, None)  # the supervisor falls silent: after 1 s its last state says nothing
         unsupervised = detections(3.0, None)
         assert proc.proc.poll() is None, proc.log_text()

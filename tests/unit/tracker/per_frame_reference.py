@@ -148,6 +148,13 @@ class HeadPipeline(ReferencePipeline):
         )
         self._reference_torso: deque[np.ndarray] = deque(maxlen=TORSO_MEDIAN_FRAMES)
 
+    def on_depth(self, frame) -> None:
+        """The detection's cadence as it was: due on every n-th depth frame from the first."""
+        self._depth = frame
+        self._depth_count += 1
+        if (self._depth_count - 1) % self.config.object_every_n_depth_frames == 0:
+            self._object_due = True
+
     def _torso_m(self, frame: SkeletonFrame) -> np.ndarray:
         if "torso" in frame.joints_m:
             self._reference_torso.append(np.asarray(frame.joints_m["torso"], float))

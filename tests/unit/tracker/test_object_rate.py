@@ -69,9 +69,21 @@ def test_a_switch_to_full_rate_detects_on_the_next_due_frame(arm, depth_frame):
     assert _detections(pipe, depth_frame, 25) == [20]        # 20 frames after the last due one
 
 
-def test_the_rest_rate_may_not_be_faster_than_the_full_rate():
-    with pytest.raises(TrackerConfigError, match="object_rest_every_n_depth_frames"):
-        config_from_dict({"object_every_n_depth_frames": 5, "object_rest_every_n_depth_frames": 4})
-    with pytest.raises(TrackerConfigError, match="object_rest_every_n_depth_frames"):
-        config_from_dict({"object_rest_every_n_depth_frames": 1001})
-    assert config_from_dict({"object_rest_every_n_depth_frames": 3}).object_rest_every_n_depth_frames == 3
+def test_the_rest_rate_is_never_faster_than_the_full_rate(arm, depth_frame):
+    """A profile that slows the full rate below the default rest rate stays valid (the rest
+    rate is then the full rate); a rest rate outside 1..1000 is refused in one line."""
+    pipe = TrackerPipeline(config_from_dict({"object_every_n_depth_frames": 20}), arm)
+    pipe.set_object_wanted(False)
+    assert _detections(pipe, depth_frame, 41) == [1, 21, 41]
+    for bad in (0, 1001):
+        with pytest.raises(TrackerConfigError, match="object_rest_every_n_depth_frames must be in 1..1000"):
+            config_from_dict({"object_rest_every_n_depth_frames": bad})
+
+
+def test_every_object_phase_is_a_phase_of_the_supervisor():
+    from typing import get_args
+
+    from bus_schema.messages.supervisor import SupervisorPhase
+    from services.tracker.core import OBJECT_PHASES
+
+    assert set(OBJECT_PHASES) <= set(get_args(SupervisorPhase))
