@@ -8,7 +8,8 @@
 3. Wait for every liveliness token (time-out names the services that did not come up).
 4. Run the job (``handover``: follow the supervisor's handover episodes and report them;
    ``demo``: joint-space demo; ``check``: stop once all are alive; ``none``: run until
-   Ctrl-C) while a monitor thread watches the children and their liveliness.
+   Ctrl-C) while a monitor thread watches the children and their liveliness (it sleeps until
+   a child exits, a token changes or a stop comes: `services.launcher.wakeup`).
 5. Shut down in order: SIGINT, SIGTERM after `term_timeout_s`, SIGKILL after as long again.
 
 Output (the children's, prefixed, and the launcher's own) never blocks the launcher: it waits
@@ -54,8 +55,8 @@ from services.launcher.logfiles import LogFiles, own_line
 from services.launcher.logins import RunLogins, bus_line, child_env
 from services.launcher.precompile import precompile_stack
 from services.launcher.processes import Child, RouterProcess, emit, stdout_outlet
+from services.launcher.wakeup import MonitorWakeup, WakingEvent
 from services.runtime import LivelinessWatcher, Profile
-from services.runtime.clock import seconds_to_wall_grid
 from services.runtime.sched import ROUTER_PID_ENV
 
 #: At exit, how long the launcher waits for a blocked stdout to take its last lines, s.
@@ -90,7 +91,9 @@ class Launcher:
         self.bus_profile = profile  # with the run's logins, for the launcher's own sessions
         self.logs = LogFiles(logs_dir(options.recording_dir, options.run_id))
         self.verbose = options.verbose
-        self.stop_requested = threading.Event()
+        #: What the monitor thread sleeps on: a child's exit, a liveliness change, a stop.
+        self.wakeup = MonitorWakeup()
+        self.stop_requested: threading.Event = WakingEvent(self.wakeup)
         self.failure: str | None = None
         self.episode_running = False
         self.shutting_down = False
@@ -113,6 +116,8 @@ class Launcher:
                       self.width, env=env or None, nice=spec.nice, log=log, verbose=self.verbose or log is None)
         child.start()
         self.children[name] = child
+        if child.pid is not None:
+            self.wakeup.watch(name, child.pid)
         return child
 
     def _fail(self, reason: str) -> None:
@@ -134,6 +139,7 @@ class Launcher:
                     code = child.poll()
                     if code is None:
                         continue
+                    self.wakeup.forget(name)  # handled: its process file descriptor stays readable
                     spec = next(s for s in self.specs if s.name == name)
                     decision = decide_restart(spec, self.restarts[name], self.episode_running, code)
                     if decision.restart:
@@ -144,7 +150,7 @@ class Launcher:
                         del self.children[name]
                         self._fail(decision.reason)
                         self.stop_requested.set()
-            self.stop_requested.wait(seconds_to_wall_grid(0.02))
+            self.wakeup.wait()
 
     def _wait_alive(self, watcher: LivelinessWatcher, names: set[str] | None = None) -> float:
         names = names if names is not None else {s.name for s in self.specs}
@@ -206,7 +212,7 @@ class Launcher:
         bus = host_bus(self.profile, [s.name for s in self.specs], self.options, self.width,
                        on_failure=self._restore_signal_handlers)
         self.logins, self.bus_profile, self.router_pid = bus.logins, bus.bus_profile, bus.router.pid
-        watcher = LivelinessWatcher(bus.session, self.profile.prefix)
+        watcher = LivelinessWatcher(bus.session, self.profile.prefix, on_change=lambda _n, _a: self.wakeup.wake())
         monitor: threading.Thread | None = None
         code = EXIT_FAILED
         try:
@@ -225,6 +231,7 @@ class Launcher:
             watcher.undeclare()
             bus.close()
             self._restore_signal_handlers()
+            self.wakeup.close()
         return self._finish(code)
 
     def _on_signal(self, signum: int, _frame: object) -> None:

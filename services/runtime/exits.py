@@ -24,6 +24,7 @@ class ExitWatch:
     def __init__(self) -> None:
         self._fds: dict[str, tuple[int, int]] = {}  # service -> (pid, fd)
         self._poll = select.poll() if hasattr(select, "poll") else None
+        self._wake_fds: set[int] = set()  # registered by `wait`
 
     def watch(self, service: str, pid: int) -> None:
         """Watch `service` as process `pid` (replacing an earlier pid of that service)."""
@@ -53,6 +54,24 @@ class ExitWatch:
             return set()
         ready = {fd for fd, _events in self._poll.poll(0)}
         return {service for service, (_pid, fd) in self._fds.items() if fd in ready}
+
+    def wait(self, timeout_s: float, wake_fd: int) -> set[str]:
+        """Block until a watched process ends, `wake_fd` (an eventfd or a pipe's read end)
+        becomes readable, or `timeout_s` (s) passes; returns `exited()`. A readable `wake_fd`
+        is read to clear it. A process that ended stays in the answer (and makes this return
+        at once) until it is forgotten."""
+        if self._poll is None:
+            select.select([wake_fd], [], [], timeout_s)
+        else:
+            if wake_fd not in self._wake_fds:
+                self._poll.register(wake_fd, select.POLLIN)
+                self._wake_fds.add(wake_fd)
+            self._poll.poll(max(0, round(timeout_s * 1000)))
+        try:
+            os.read(wake_fd, 8)
+        except BlockingIOError:  # not woken: a process ended, or the time-out
+            pass
+        return self.exited()
 
     def close(self) -> None:
         for service in list(self._fds):
