@@ -15,6 +15,7 @@ from handover_model import scene
 from services.planner.config import load_config
 from services.planner.core import plan_for_receiver, receiver_from_human_state
 from services.runtime.testing import BusRouter, ServiceProcess, client_session, loopback_profile, wait_alive
+from tests.integration.supervised_windows import outputs_per_window
 
 pytestmark = pytest.mark.integration
 
@@ -116,23 +117,13 @@ def test_the_planner_rests_outside_an_episode_and_wakes_for_the_next_one(bus, ma
     with ServiceProcess("services.planner", profile, name="planner") as proc:
         wait_alive(node.session, profile, {"planner"}, timeout_s=20.0)
 
-        def plans(seconds: float, phase: str | None) -> int:
-            """Transfer targets published while `seconds` of inputs go out."""
-            targets.drain()
-            start = time.monotonic()
-            for k in range(round(seconds * 30)):
-                human_pub.put(**human)
-                if phase is not None and k % 3 == 0:
-                    state_pub.put(phase=phase)
-                time.sleep(max(0.0, start + (k + 1) / 30.0 - time.monotonic()))
-            return len(targets.drain())
-
-        plans(1.0, "done")  # the first plan, and the planner hears the supervisor
-        resting = plans(3.0, "done")
-        in_episode = plans(3.0, "pick")
-        plans(1.0, "done")  # resting again: the last word before the silence
-        plans(1.5, None)  # the supervisor falls silent: after 1 s its last state says nothing
-        unsupervised = plans(3.0, None)
+        # The first plan, and the planner hears the supervisor; resting; in an episode; resting
+        # again (the last word before the silence); silent (after 1 s its last state says
+        # nothing); unsupervised.
+        counts = outputs_per_window(targets, lambda: human_pub.put(**human), state_pub, [
+            (1.0, "done"), (3.0, "done"), (3.0, "pick"), (1.0, "done"), (1.5, None), (3.0, None)],
+            state_every=3, settle_s=0.0)
+        resting, in_episode, unsupervised = counts[1], counts[2], counts[5]
         assert proc.proc.poll() is None, proc.log_text()
     assert 4 <= resting <= 8, (resting, in_episode, unsupervised)
     assert in_episode >= 12, (resting, in_episode, unsupervised)

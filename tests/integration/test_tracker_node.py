@@ -16,6 +16,7 @@ from handover_model import scene
 from handover_model.robots.baxter import RIGHT_ARM_HOME_RAD, RIGHT_ARM_JOINTS
 from robot_sim.kinect import KinectScenario, KinectSim
 from services.runtime.testing import BusRouter, ServiceProcess, client_session, loopback_profile, wait_alive, wait_until
+from tests.integration.supervised_windows import outputs_per_window
 
 pytestmark = pytest.mark.integration
 
@@ -128,26 +129,16 @@ def test_the_object_is_detected_at_full_rate_only_while_the_supervisor_locates_i
     with ServiceProcess("services.tracker", profile, name="tracker", args=["--sensor", "bus"]) as proc:
         wait_alive(node.session, profile, {"tracker"}, timeout_s=30.0)
 
-        def detections(seconds: float, phase: str | None) -> int:
-            """Objects published while `seconds` of frames (and, with a `phase`, 20 Hz states) go out."""
-            objects.drain()
-            start = time.monotonic()
-            for k in range(round(seconds * 30)):
-                pubs[T.JOINT_STATE].put(names=list(RIGHT_ARM_JOINTS), position_rad=list(q), velocity_rad_s=[0.0] * 7)
-                pubs[T.DEPTH].put(**frame.depth_fields)
-                pubs[T.SKELETON].put(**frame.skeleton_fields)
-                if phase is not None and k % 2 == 0:
-                    pubs[T.SUPERVISOR_STATE].put(phase=phase)
-                time.sleep(max(0.0, start + (k + 1) / 30.0 - time.monotonic()))
-            time.sleep(0.2)  # the last frames' detections still on their way
-            return len(objects.drain())
+        def send_frame() -> None:
+            pubs[T.JOINT_STATE].put(names=list(RIGHT_ARM_JOINTS), position_rad=list(q), velocity_rad_s=[0.0] * 7)
+            pubs[T.DEPTH].put(**frame.depth_fields)
+            pubs[T.SKELETON].put(**frame.skeleton_fields)
 
-        detections(1.0, "reach")  # the tracker hears the supervisor
-        resting = detections(3.0, "reach")
-        locating = detections(3.0, "locate")
-        detections(1.0, "reach")  # resting again: the last word before the silence
-        detections(1.5, None)  # the supervisor falls silent: after 1 s its last state says nothing
-        unsupervised = detections(3.0, None)
+        # The tracker hears the supervisor; resting; locating; resting again (the last word
+        # before the silence); silent (after 1 s its last state says nothing); unsupervised.
+        counts = outputs_per_window(objects, send_frame, pubs[T.SUPERVISOR_STATE], [
+            (1.0, "reach"), (3.0, "reach"), (3.0, "locate"), (1.0, "reach"), (1.5, None), (3.0, None)])
+        resting, locating, unsupervised = counts[1], counts[2], counts[5]
         assert proc.proc.poll() is None, proc.log_text()
     assert 3 <= resting <= 10, (resting, locating, unsupervised)
     assert locating >= 20, (resting, locating, unsupervised)
