@@ -150,6 +150,9 @@ class Launcher:
                         del self.children[name]
                         self._fail(decision.reason)
                         self.stop_requested.set()
+            for name in self.wakeup.exited():  # an exit no pass will handle must not wake it again
+                if self.shutting_down or name not in self.children:
+                    self.wakeup.forget(name)
             self.wakeup.wait()
 
     def _wait_alive(self, watcher: LivelinessWatcher, names: set[str] | None = None) -> float:
@@ -231,7 +234,8 @@ class Launcher:
             watcher.undeclare()
             bus.close()
             self._restore_signal_handlers()
-            self.wakeup.close()
+            if monitor is None or not monitor.is_alive():  # one that outlived its join keeps its fds
+                self.wakeup.close()
         return self._finish(code)
 
     def _on_signal(self, signum: int, _frame: object) -> None:

@@ -1,4 +1,5 @@
-"""Bus wiring of the planner: HumanState + ObjectEstimate in, TransferTarget out.
+"""Bus wiring of the planner: HumanState + ObjectEstimate in (and the supervisor's phase, to
+rest outside an episode: `core.planner_rests`), TransferTarget out.
 
 All decisions are in `core.PlannerService`; this module only moves messages.
 """

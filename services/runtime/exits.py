@@ -26,20 +26,22 @@ class ExitWatch:
         self._poll = select.poll() if hasattr(select, "poll") else None
         self._wake_fds: set[int] = set()  # registered by `wait`
 
-    def watch(self, service: str, pid: int) -> None:
-        """Watch `service` as process `pid` (replacing an earlier pid of that service)."""
+    def watch(self, service: str, pid: int) -> bool:
+        """Watch `service` as process `pid` (replacing an earlier pid of that service); False
+        when the kernel gives no process file descriptor for it (not watched)."""
         old = self._fds.get(service)
         if old is not None and old[0] == pid:
-            return
+            return True
         self.forget(service)
         if self._poll is None or not hasattr(os, "pidfd_open"):
-            return
+            return False
         try:
             fd = os.pidfd_open(pid)
         except OSError:  # gone already, or not allowed: liveliness will tell
-            return
+            return False
         self._fds[service] = (pid, fd)
         self._poll.register(fd, select.POLLIN)
+        return True
 
     def forget(self, service: str) -> None:
         """Stop watching `service`."""
@@ -69,7 +71,7 @@ class ExitWatch:
             self._poll.poll(max(0, round(timeout_s * 1000)))
         try:
             os.read(wake_fd, 8)
-        except BlockingIOError:  # not woken: a process ended, or the time-out
+        except OSError:  # not woken (a process ended, or the time-out), or closed meanwhile
             pass
         return self.exited()
 

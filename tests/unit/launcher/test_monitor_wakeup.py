@@ -77,7 +77,7 @@ def test_a_running_child_does_not_wake_the_sleeping_monitor(wakeup):
 
     def monitor() -> None:
         tids.append(threading.get_native_id())
-        wakeup.wait(1.5)
+        wakeup.wait(30.0)
 
     try:
         wakeup.watch("bridge", child.pid)
@@ -88,13 +88,15 @@ def test_a_running_child_does_not_wake_the_sleeping_monitor(wakeup):
         time.sleep(0.8)
         assert waiter.is_alive()
         assert _switches(tids[0]) - before == 0         # the old loop woke 40 times in 0.8 s
-        waiter.join()
+        wakeup.wake()
+        waiter.join(5.0)
+        assert not waiter.is_alive()
     finally:
         child.kill()
         child.wait()
 
 
-def test_a_child_the_kernel_cannot_watch_is_left_to_the_backstop(wakeup):
+def test_a_child_the_kernel_cannot_watch_is_looked_at_as_often_as_before(wakeup):
     child = _sleeper(0.0)
     child.wait()
     gone_pid = child.pid
@@ -102,5 +104,66 @@ def test_a_child_the_kernel_cannot_watch_is_left_to_the_backstop(wakeup):
         time.sleep(0.01)
     wakeup.watch("planner", gone_pid)                   # no such process: not watched, no error
     t0 = time.monotonic()
+    assert wakeup.wait(5.0) == set()
+    assert time.monotonic() - t0 < 1.0                  # UNWATCHED_POLL_S, not the 5 s asked for
+    wakeup.forget("planner")
+    t0 = time.monotonic()
     assert wakeup.wait(0.2) == set()
     assert time.monotonic() - t0 >= 0.15
+
+
+def test_after_close_wake_does_nothing_and_wait_returns_at_once():
+    w = MonitorWakeup()
+    w.close()
+    w.close()                                           # once is enough; twice is harmless
+    w.wake()
+    t0 = time.monotonic()
+    assert w.wait(5.0) == set()
+    assert time.monotonic() - t0 < 1.0
+
+
+def test_the_launcher_monitor_sleeps_until_its_child_exits_then_fails_the_run(tmp_path, monkeypatch):
+    """`Launcher._monitor` with a real child standing in for the bridge (never restarted): no
+    wake while it runs, even with a 30 s back-stop; its exit ends the monitor at once with the
+    run's failure and the stop request."""
+    from services.launcher import node, wakeup as wakeup_module
+    from services.launcher.core import LaunchOptions
+    from services.launcher.processes import Child
+    from services.runtime.profile import load_profile_file
+
+    monkeypatch.setattr(wakeup_module, "BACKSTOP_S", 30.0)
+    launcher = node.Launcher(load_profile_file("sim"), LaunchOptions(run_id="t", recording_dir=tmp_path))
+
+    class Watcher:
+        def events(self) -> list:
+            return []
+
+    child = Child("bridge", [sys.executable, "-c", "import sys, time; time.sleep(1.2); sys.exit(3)"], 10,
+                  verbose=False)
+    child.start()
+    tids: list[int] = []
+
+    def monitor() -> None:
+        tids.append(threading.get_native_id())
+        launcher._monitor(Watcher())
+
+    try:
+        launcher.children["bridge"] = child
+        assert child.pid is not None
+        launcher.wakeup.watch("bridge", child.pid)
+        thread = threading.Thread(target=monitor)
+        thread.start()
+        time.sleep(0.3)
+        before = _switches(tids[0])
+        time.sleep(0.5)
+        assert thread.is_alive() and _switches(tids[0]) - before == 0
+        thread.join(10.0)
+        assert not thread.is_alive()                    # ended by the exit, not by the 30 s back-stop
+        assert launcher.stop_requested.is_set()
+        assert launcher.failure is not None and "bridge" in launcher.failure, launcher.failure
+        assert "bridge" not in launcher.children
+    finally:
+        if child.proc is not None:
+            child.proc.kill()
+            child.proc.wait()
+        launcher.wakeup.close()
