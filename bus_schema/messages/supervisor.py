@@ -26,6 +26,11 @@ SupervisorPhase = Literal[
 ]
 
 
+#: A reader that acts on the supervisor's phase (the tracker, the planner) takes a
+#: `SupervisorState` received longer ago than this as no word at all, s: the supervisor sends
+#: one at least every 50 ms, so an older one means it is silent or gone.
+SUPERVISOR_STATE_FRESH_S = 1.0
+
 GripRequest = Literal["open", "carry", "transfer"]
 
 

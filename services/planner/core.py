@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from bus_schema.messages import HumanState
+from bus_schema.messages import SUPERVISOR_STATE_FRESH_S, HumanState
 from services.planner.anthropometrics import BodyDimensions
 from services.planner.config import PlannerConfig
 from services.planner.errors import PlannerError
@@ -113,9 +113,8 @@ def plan_for_receiver(
 #: Supervisor phases outside an episode: nobody reads a plan then (the supervisor reads the
 #: transfer target from `plan` to the end of `reach`, after a `pick` of a second and more).
 REST_PHASES = ("idle", "done", "failed", "protective_stop")
-#: A supervisor state older than this (s) no longer lets the planner rest: a planner without a
-#: supervisor (alone, a study, a lost supervisor) keeps its full rate.
-SUPERVISOR_STATE_FRESH_S = 1.0
+# A supervisor state older than SUPERVISOR_STATE_FRESH_S no longer lets the planner rest: a
+# planner without a supervisor (alone, a study, a lost one) keeps its full rate.
 
 
 def planner_rests(phase: str | None, state_age_s: float) -> bool:

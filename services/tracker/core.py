@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from bus_schema.messages import Skeleton
+from bus_schema.messages import SUPERVISOR_STATE_FRESH_S, Skeleton
 from handover_model.robot_geometry import ArmGeometry
 from handover_model.shapes import Capsule
 from services.tracker.body import BodyDimensionEstimator, BodyDimensions
@@ -99,9 +99,8 @@ class HumanEstimate:
 #: Supervisor phases in which it reads `perception/object` (it takes the object's position when
 #: it locates it; later phases use that position, the planner only the mass).
 OBJECT_PHASES = ("locate",)
-#: A supervisor state older than this (s) no longer says the object is not wanted: a tracker
-#: without a supervisor (perception alone, a replay, a lost supervisor) detects at full rate.
-SUPERVISOR_STATE_FRESH_S = 1.0
+# A supervisor state older than SUPERVISOR_STATE_FRESH_S no longer says the object is not
+# wanted: a tracker without a supervisor (perception alone, a replay, a lost one) detects at full rate.
 
 
 def object_wanted(phase: str | None, state_age_s: float) -> bool:
