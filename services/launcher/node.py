@@ -28,7 +28,6 @@ import signal
 import threading
 import time
 from pathlib import Path
-from typing import Any
 
 from services.launcher.bus_host import host_bus
 from services.launcher.core import (
@@ -58,6 +57,7 @@ from services.launcher.processes import Child, RouterProcess, emit, stdout_outle
 from services.launcher.wakeup import MonitorWakeup, WakingEvent
 from services.runtime import LivelinessWatcher, Profile
 from services.runtime.sched import ROUTER_PID_ENV
+from services.runtime.signals import SignalRelay
 
 #: At exit, how long the launcher waits for a blocked stdout to take its last lines, s.
 EXIT_FLUSH_S = 10.0
@@ -98,7 +98,8 @@ class Launcher:
         self.episode_running = False
         self.shutting_down = False
         self.interrupted = False
-        self._previous_handlers: dict[signal.Signals, Any] = {}  # what signal.signal returned
+        #: SIGINT/SIGTERM, acted on in a thread of their own (`services.runtime.signals`).
+        self._signals = SignalRelay(self._on_signal, name="launcher signals")
         self._lock = threading.Lock()
 
     # ------------------------------------------------------------------ children
@@ -209,11 +210,11 @@ class Launcher:
     def run(self) -> int:
         """Host the bus, start the services, run the job, shut down; the exit code."""
         self.interrupted = False
-        self._previous_handlers = {s: signal.signal(s, self._on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+        self._signals.install()
         t0 = time.monotonic()
         precompile_stack()
         bus = host_bus(self.profile, [s.name for s in self.specs], self.options, self.width,
-                       on_failure=self._restore_signal_handlers)
+                       on_failure=self._signals.restore)
         self.logins, self.bus_profile, self.router_pid = bus.logins, bus.bus_profile, bus.router.pid
         watcher = LivelinessWatcher(bus.session, self.profile.prefix, on_change=lambda _n, _a: self.wakeup.wake())
         monitor: threading.Thread | None = None
@@ -233,20 +234,17 @@ class Launcher:
             self._shutdown()
             watcher.undeclare()
             bus.close()
-            self._restore_signal_handlers()
+            self._signals.restore()
             if monitor is None or not monitor.is_alive():  # one that outlived its join keeps its fds
                 self.wakeup.close()
         return self._finish(code)
 
-    def _on_signal(self, signum: int, _frame: object) -> None:
+    def _on_signal(self, signum: int) -> None:
+        """SIGINT/SIGTERM, in the relay's thread (never the handler: `say` and `set` take locks)."""
         if not self.stop_requested.is_set():
             say(f"{signal.Signals(signum).name} received: shutting down")
         self.interrupted = True
         self.stop_requested.set()
-
-    def _restore_signal_handlers(self) -> None:
-        for signum, handler in self._previous_handlers.items():
-            signal.signal(signum, handler)
 
     def _start_services(self, router: RouterProcess, watcher: LivelinessWatcher, t0: float) -> threading.Thread:
         """Open the logs, start every service (the recorder alive first), wait until all are

@@ -33,6 +33,7 @@ from services.runtime.faults import rules_for
 from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile
+from services.runtime.signals import SignalRelay
 from services.runtime.zenoh_config import zenoh_config
 from services.runtime.pubsub import Received, SubscriptionStats, TypedPublisher, TypedSubscription
 from services.runtime.stamps import SENDER_CLOCK, SenderClock
@@ -151,7 +152,7 @@ class ServiceNode:
         self._publishers: list[TypedPublisher[Any]] = []
         self._session: zenoh.Session | None = None
         self._token: Any = None
-        self._previous_handlers: dict[int, Any] = {}
+        self._signals = SignalRelay(self._on_signal, name=f"{name} signals")
         self.loops: list[RateLoop] = []
         self.fault_rules = rules_for(name, enabled=profile.fault_injection)
         self._heartbeat_pub: TypedPublisher[Any] | None = None
@@ -174,9 +175,8 @@ class ServiceNode:
         self.close()
 
     def open(self) -> None:
-        if self._install_signal_handlers and threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                self._previous_handlers[sig] = signal.signal(sig, self._on_signal)
+        if self._install_signal_handlers:
+            self._signals.install()  # main thread only; acted on in the relay's thread (`signals`)
         self._session = open_session(self.profile, self.mode, self.connect_timeout_s, user=self.name)
         self._opened_s = time.monotonic()
         if not isinstance(self.clock, WallClock):
@@ -213,9 +213,7 @@ class ServiceNode:
             except Exception as exc:  # noqa: BLE001 - best-effort close, said once
                 log.warning("closing the Zenoh session failed: %s", exc)
             self._session = None
-        for sig, handler in self._previous_handlers.items():
-            signal.signal(sig, handler)
-        self._previous_handlers.clear()
+        self._signals.restore()
 
     def ready(self) -> None:
         """Declare the liveliness token: call once every subscription is declared (alive means
@@ -228,12 +226,13 @@ class ServiceNode:
         """True once the liveliness token is declared."""
         return self._token is not None
 
-    def _on_signal(self, signum: int, _frame: object) -> None:
+    def _on_signal(self, signum: int) -> None:
+        """SIGINT/SIGTERM, in the relay's thread (never the signal handler: it may take locks)."""
         log.info("%s received %s, shutting down", self.name, signal.Signals(signum).name)
         self.request_stop()
 
     def request_stop(self) -> None:
-        """Ask the service's loops to end (thread-safe, signal-safe)."""
+        """Ask the service's loops to end (thread-safe; not from a signal handler: it takes locks)."""
         self.stop_event.set()
         self._notify()
         if not isinstance(self.clock, WallClock):
