@@ -21,15 +21,38 @@ from dataclasses import dataclass, field
 
 from bus_schema import topics
 from services.launcher.episode_watch import EpisodeReport, EpisodeWatch
-from services.launcher.supervisor_silence import SUPERVISOR_SILENT_S, SimClockSilence, SupervisorSilence
+from services.launcher.supervisor_silence import (
+    NOTE_AFTER_S,
+    SUPERVISOR_SILENT_S,
+    SimClockSilence,
+    SupervisorSilence,
+)
 from services.runtime import ServiceNode
-from services.runtime.clock import seconds_to_wall_grid
+from services.runtime.clock import WALL_GRID_PHASE_S, first_grid_time_s, seconds_to_wall_grid
 
-#: The job's loop wakes at least this often to judge the supervisor's freshness, s.
+#: Period of the job's look at the supervisor's freshness while it is quiet, s (on the host's
+#: shared grid).
 WATCH_PERIOD_S = 0.02
-#: A loop iteration this much after the previous one (it waits at most 20 ms) means the
-#: launcher itself was starved: states may still wait in its socket.
-SELF_STALL_S = 0.1
+#: A loop iteration that began this much after the time it asked to wake means the launcher
+#: itself was starved: states may still wait in its socket, s.
+SELF_STALL_S = 0.08
+
+
+def seconds_to_next_look(silence: SupervisorSilence | SimClockSilence, now_s: float) -> float:
+    """How long the job may sleep before it looks at the supervisor's freshness again, s.
+
+    On the wall clock, while the supervisor's states come, nothing can be judged before the
+    newest is `NOTE_AFTER_S` old: the job sleeps until then (the first point of the shared
+    `WATCH_PERIOD_S` grid at or after it), instead of looking 50 times a second to find a
+    fresh state each time (0.03 core of the launcher over an episode). From there on, as
+    before the first episode and on the simulation clock, it looks every `WATCH_PERIOD_S`:
+    a silence is noted, judged and stopped on the same grid points as when it always looked.
+    `now_s`: monotonic s."""
+    if isinstance(silence, SupervisorSilence) and silence.episode_begun and silence.last_state_s is not None:
+        look_s = first_grid_time_s(silence.last_state_s + NOTE_AFTER_S, WATCH_PERIOD_S, WALL_GRID_PHASE_S)
+        if look_s - now_s > WATCH_PERIOD_S / 10:
+            return look_s - now_s
+    return seconds_to_wall_grid(WATCH_PERIOD_S, now_s)
 
 
 @dataclass
@@ -48,7 +71,7 @@ class _EpisodeFeed:
         self.say = say
         self.silence = silence
         self.watch = EpisodeWatch()
-        # Read at the job loop's 50 Hz tick; only a summary wakes it early.
+        # Read when the job looks (`seconds_to_next_look`); only a summary wakes it early.
         self.states = node.subscribe(topics.SUPERVISOR_STATE, queue_size=256, wake=False)
         self.summaries = node.subscribe(topics.EPISODE, queue_size=64)
         self.truth = node.subscribe(topics.SIM_TRUTH, queue_size=1024, wake=False)
@@ -112,11 +135,12 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
     silence: SupervisorSilence | SimClockSilence = (
         SimClockSilence() if node.clock.is_sim else SupervisorSilence(supervisor_pid, delivery_pids))
     feed = _EpisodeFeed(node, say, silence)
-    last_loop_s = time.monotonic()
+    wait_s = seconds_to_wall_grid(WATCH_PERIOD_S)
     while True:
-        node.wait(seconds_to_wall_grid(WATCH_PERIOD_S))
+        wake_s = time.monotonic() + wait_s
+        node.wait(wait_s)
         now_s = time.monotonic()
-        late, last_loop_s = now_s - last_loop_s > SELF_STALL_S, now_s
+        late = now_s - wake_s > SELF_STALL_S
         silence.tick(now_s)
         feed.take_truth()
         feed.take_states()
@@ -140,3 +164,4 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
         if not math.isinf(episode_timeout_s) and time.monotonic() - feed.last_progress_s > episode_timeout_s:
             return JobResult(False, f"no progress from the supervisor for {episode_timeout_s:.0f} s",
                              feed.watch.reports)
+        wait_s = seconds_to_next_look(silence, time.monotonic())

@@ -62,3 +62,40 @@ def test_a_silence_in_an_episode_is_a_protective_stop_by_the_launcher(make_node)
     assert wait_until(lambda: stops.latest() is not None, 2.0)
     stop = stops.latest()
     assert stop.msg.protective and "supervisor: silent" in stop.msg.reason
+
+
+def test_while_states_come_the_job_looks_only_when_the_newest_could_begin_a_silence(make_node):
+    """States at 50 Hz in an episode: the job looks about every `NOTE_AFTER_S` (the old loop
+    looked 50 times a second), and the silence that follows is still stopped in time."""
+    from services.launcher.supervisor_silence import NOTE_AFTER_S
+
+    node = make_node("launcher")
+    looks: list[float] = []
+    wait = node.wait
+
+    def counting_wait(timeout_s: float) -> bool:
+        looks.append(time.monotonic())
+        return wait(timeout_s)
+
+    node.wait = counting_wait
+    result: dict = {}
+    thread = threading.Thread(target=lambda: result.setdefault("job", run_handover_job(
+        node, 1, lambda: None, lambda _: None, episode_timeout_s=30.0)), daemon=True)
+    thread.start()
+    states = make_node("supervisor").publisher(topics.SUPERVISOR_STATE)
+    time.sleep(0.3)
+    start = time.monotonic()
+    while time.monotonic() < start + 2.0:
+        states.put(phase="reach", episode_id=1, grip_request="open")
+        time.sleep(0.02)
+    end = time.monotonic()
+    thread.join(5.0)
+    assert not thread.is_alive()
+    in_flow = sum(start + 0.2 <= t < end for t in looks)
+    # 1.8 s of states: 36 looks or more at 50 Hz; one a NOTE_AFTER_S or so now (up to 30 on a
+    # busy machine, whose late states bring the next look closer).
+    assert in_flow <= 1.8 / NOTE_AFTER_S + 8, in_flow
+    job = result["job"]
+    assert job.message.startswith("supervisor: silent: no supervisor/state for ")
+    silent_s = float(re.search(r"for ([0-9.]+) s", job.message).group(1))
+    assert SUPERVISOR_SILENT_S <= silent_s < SUPERVISOR_SILENT_S + 0.5
