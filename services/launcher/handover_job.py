@@ -38,6 +38,18 @@ WATCH_PERIOD_S = 0.02
 SELF_STALL_S = 0.08
 
 
+def arrival_estimate_s(taken_s: float, previous_look_s: float, sent_s: float) -> float:
+    """When a supervisor state taken in at `taken_s` arrived (all monotonic s): not before the
+    previous look (`previous_look_s`, which took every state there was) nor before it was sent
+    (`sent_s`: its stamp on this host's monotonic clock), and not after it was taken in.
+
+    The job looks up to 80 ms apart (`seconds_to_next_look`): timed by the look, a silence
+    would be seen up to that much late. On one host the stamp is within a delivery of the
+    arrival; with another host's clock off either way, the estimate stays between the two
+    looks, so the silence is never measured worse than the look period."""
+    return min(taken_s, max(previous_look_s, sent_s))
+
+
 def seconds_to_next_look(silence: SupervisorSilence | SimClockSilence, now_s: float) -> float:
     """How long the job may sleep before it looks at the supervisor's freshness again, s.
 
@@ -73,6 +85,8 @@ class _EpisodeFeed:
         self.watch = EpisodeWatch()
         # Read when the job looks (`seconds_to_next_look`); only a summary wakes it early.
         self.states = node.subscribe(topics.SUPERVISOR_STATE, queue_size=256, wake=False)
+        #: When the job last took the states in (monotonic s): what it takes in now came since.
+        self.looked_s = time.monotonic()
         self.summaries = node.subscribe(topics.EPISODE, queue_size=64)
         self.truth = node.subscribe(topics.SIM_TRUTH, queue_size=1024, wake=False)
         self.stop_pub = node.publisher(topics.MOTION_STOP)
@@ -93,8 +107,14 @@ class _EpisodeFeed:
             self.watch.truth(rx.msg)
 
     def take_states(self) -> None:
+        looked_s, self.looked_s = self.looked_s, time.monotonic()
+        wall_minus_monotonic_s = time.time() - self.looked_s
         for rx in self.states.drain():
-            self.silence.heard(rx.rx_monotonic, rx.msg.episode_id, rx.msg.stamp_ns / 1e9)
+            stamp_s = rx.msg.stamp_ns / 1e9
+            heard_s = rx.rx_monotonic  # the look that took it in (a ring channel's)
+            if isinstance(self.silence, SupervisorSilence):
+                heard_s = arrival_estimate_s(heard_s, looked_s, stamp_s - wall_minus_monotonic_s)
+            self.silence.heard(heard_s, rx.msg.episode_id, stamp_s)
             line = self.watch.state(rx.msg)
             if line is not None:
                 self.say(line)

@@ -46,3 +46,58 @@ def test_a_state_heard_just_before_a_grid_point_does_not_make_a_look_of_a_few_mi
     heard_s = GRID_0 + WATCH_PERIOD_S - 1e-6
     now_s = heard_s + NOTE_AFTER_S - 1e-6  # the look point is 1 µs away: look on the grid instead
     assert seconds_to_next_look(_heard(heard_s), now_s) >= WATCH_PERIOD_S / 10
+
+
+# ---------------------------------------------------------------- when a state arrived
+def test_the_arrival_is_the_send_time_between_the_two_looks():
+    from services.launcher.handover_job import arrival_estimate_s
+
+    assert arrival_estimate_s(taken_s=10.08, previous_look_s=10.0, sent_s=10.03) == 10.03
+    # another host's clock behind: not before the previous look, which saw nothing yet
+    assert arrival_estimate_s(taken_s=10.08, previous_look_s=10.0, sent_s=7.0) == 10.0
+    # ... or ahead: not after it was taken in
+    assert arrival_estimate_s(taken_s=10.08, previous_look_s=10.0, sent_s=12.0) == 10.08
+
+
+class _Ring:
+    def __init__(self) -> None:
+        self.waiting: list = []
+
+    def drain(self) -> list:
+        taken, self.waiting = self.waiting, []
+        return taken
+
+
+class _Node:
+    def __init__(self) -> None:
+        self.rings: dict = {}
+
+    def subscribe(self, topic, **_kw):
+        return self.rings.setdefault(topic.suffix, _Ring())
+
+    def publisher(self, _topic):
+        return None
+
+
+def test_the_feed_times_a_state_by_when_it_was_sent_not_by_the_look_that_took_it_in():
+    """A state sent 70 ms before the look that takes it in (the job sleeps up to 80 ms) counts
+    as heard 70 ms ago: a freeze right after it is seen at its time, not 70 ms late."""
+    import time
+
+    from bus_schema import messages as m
+    from bus_schema import topics
+    from services.launcher.handover_job import _EpisodeFeed
+    from services.runtime.pubsub import Received
+
+    node = _Node()
+    silence = SupervisorSilence()
+    feed = _EpisodeFeed(node, lambda _line: None, silence)  # type: ignore[arg-type]
+    feed.looked_s = time.monotonic() - 0.08
+    sent_ns = time.time_ns() - 70_000_000
+    state = m.SupervisorState(seq=1, stamp_ns=sent_ns, source="supervisor", phase="reach", episode_id=1,
+                              grip_request="open")
+    node.rings[topics.SUPERVISOR_STATE.suffix].waiting = [Received(state, time.monotonic())]
+    feed.take_states()
+    assert silence.last_state_s is not None
+    assert 0.065 <= time.monotonic() - silence.last_state_s < 0.1
+    assert 0.065 <= silence.silent_s() < 0.1
