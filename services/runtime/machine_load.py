@@ -14,12 +14,14 @@ wait (``schedstat``), which the kernel adds only once the thread gets a CPU.
 
 from __future__ import annotations
 
+import os
 from collections import deque
 from dataclasses import dataclass
+from io import FileIO
 
 from services.runtime.starvation import parse_steal
 
-#: Machine readings are taken at most this often, s (two small `/proc` reads, ~35 µs).
+#: Machine readings are taken at most this often, s (two small `/proc` reads in place).
 SAMPLE_PERIOD_S = 0.02
 #: Readings older than this are dropped, s (longer than any silence that may be excused).
 KEEP_S = 3.0
@@ -55,19 +57,55 @@ def parse_pressure_some(text: str) -> float | None:
     return None
 
 
+class MachineReader:
+    """Reads the machine's CPU pressure and steal, the two ``/proc`` files kept open and re-read
+    in place (``pread`` at offset 0, as `services.runtime.starvation.WakeSampler` does: no
+    open and close at each of the 40 readings a second of a watcher's tick). A file that cannot
+    be opened or read gives None for its figure; the files close with the reader.
+
+    Args:
+        proc_root: where ``/proc`` is (tests point it elsewhere).
+    """
+
+    def __init__(self, proc_root: str = "/proc") -> None:
+        self._pressure = self._open(f"{proc_root}/pressure/cpu")
+        self._stat = self._open(f"{proc_root}/stat")
+
+    @staticmethod
+    def _open(path: str) -> FileIO | None:
+        try:
+            return FileIO(path, "rb")  # unbuffered; closed when the reader goes
+        except OSError:
+            return None
+
+    @staticmethod
+    def _read(file: FileIO | None) -> str | None:
+        if file is None:
+            return None
+        try:
+            return os.pread(file.fileno(), 256, 0).decode("ascii", "replace")
+        except (OSError, ValueError):  # ValueError: closed
+            return None
+
+    def __call__(self, at_s: float) -> MachineReading:
+        """The machine's CPU pressure and steal now, stamped `at_s` (None where unreadable)."""
+        pressure_text, stat_text = self._read(self._pressure), self._read(self._stat)
+        return MachineReading(at_s, None if pressure_text is None else parse_pressure_some(pressure_text),
+                              None if stat_text is None else parse_steal(stat_text.split("\n", 1)[0]))
+
+    def close(self) -> None:
+        for file in (self._pressure, self._stat):
+            if file is not None:
+                file.close()
+
+
 def read_machine(at_s: float, proc_root: str = "/proc") -> MachineReading:
-    """The machine's CPU pressure and steal now (None where unreadable)."""
+    """The machine's CPU pressure and steal now (one-off; None where unreadable)."""
+    reader = MachineReader(proc_root)
     try:
-        with open(f"{proc_root}/pressure/cpu", "rb") as f:
-            pressure = parse_pressure_some(f.read(256).decode("ascii", "replace"))
-    except OSError:
-        pressure = None
-    try:
-        with open(f"{proc_root}/stat", "rb") as f:
-            steal = parse_steal(f.read(256).decode("ascii", "replace").split("\n", 1)[0])
-    except OSError:
-        steal = None
-    return MachineReading(at_s, pressure, steal)
+        return reader(at_s)
+    finally:
+        reader.close()
 
 
 def _delta(older: float | None, newer: float | None) -> float | None:
@@ -78,11 +116,12 @@ class MachineHistory:
     """Recent machine readings (see the module docstring).
 
     Args:
-        read: `read_machine`-like reader (tests pass a fake).
+        read: `read_machine`-like reader, ``read(at_s)`` (default: a `MachineReader`; tests
+            pass a fake).
     """
 
-    def __init__(self, read=read_machine) -> None:
-        self._read = read
+    def __init__(self, read=None) -> None:
+        self._read = read if read is not None else MachineReader()
         self._readings: deque[MachineReading] = deque()
 
     def __len__(self) -> int:

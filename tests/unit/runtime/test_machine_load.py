@@ -62,3 +62,32 @@ def test_old_readings_are_dropped():
     for k in range(400):
         machine.observe(k * 0.05)
     assert len(machine) <= KEEP_S / 0.05 + 1
+
+
+def test_the_reader_keeps_its_files_open_and_reads_them_again_in_place(tmp_path):
+    """`MachineReader`: each reading re-reads the same open files from the start (a rewritten
+    file gives its new figures; the reader holds the same two descriptors throughout)."""
+    from services.runtime.machine_load import MachineReader
+
+    (tmp_path / "pressure").mkdir()
+    pressure, stat = tmp_path / "pressure" / "cpu", tmp_path / "stat"
+
+    def write(pressure_us: int, steal_ticks: int) -> None:
+        pressure.write_text(f"some avg10=0.00 avg60=0.00 avg300=0.00 total={pressure_us}\n")
+        stat.write_text(f"cpu  1 0 1 100 0 0 0 {steal_ticks} 0 0\ncpu0 1 0 1 100 0 0 0 {steal_ticks} 0 0\n")
+
+    write(2_000_000, 0)
+    reader = MachineReader(str(tmp_path))
+    first = reader(1.0)
+    fds = sorted(os.listdir("/proc/self/fd"))
+    with open(pressure, "r+") as f, open(stat, "r+") as g:  # rewritten in place: the same files
+        f.write("some avg10=0.00 avg60=0.00 avg300=0.00 total=5000000\n")
+        g.seek(0)
+        g.write(stat.read_text().replace(" 100 0 0 0 0 ", " 100 0 0 0 9 "))
+    second = reader(2.0)
+    assert sorted(os.listdir("/proc/self/fd")) == fds
+    assert (first.at_s, first.pressure_s) == (1.0, 2.0)
+    assert (second.at_s, second.pressure_s) == (2.0, 5.0)
+    assert second.steal_s is not None and first.steal_s is not None and second.steal_s > first.steal_s
+    reader.close()
+    assert reader(3.0) == MachineReading(3.0, None, None)
