@@ -44,23 +44,25 @@ def arrival_estimate_s(taken_s: float, previous_look_s: float, sent_s: float) ->
     (`sent_s`: its stamp on this host's monotonic clock), and not after it was taken in.
 
     The job looks up to 80 ms apart (`seconds_to_next_look`): timed by the look, a silence
-    would be seen up to that much late. On one host the stamp is within a delivery of the
-    arrival; with another host's clock off either way, the estimate stays between the two
-    looks, so the silence is never measured worse than the look period."""
+    would be seen up to that much late. Used on one host only, where the stamp is within a
+    delivery of the arrival (a step of the wall clock between two looks can move it by at
+    most the time between them); another host's clock may be off by more than a look."""
     return min(taken_s, max(previous_look_s, sent_s))
 
 
 def seconds_to_next_look(silence: SupervisorSilence | SimClockSilence, now_s: float) -> float:
     """How long the job may sleep before it looks at the supervisor's freshness again, s.
 
-    On the wall clock, while the supervisor's states come, nothing can be judged before the
-    newest is `NOTE_AFTER_S` old: the job sleeps until then (the first point of the shared
-    `WATCH_PERIOD_S` grid at or after it), instead of looking 50 times a second to find a
-    fresh state each time (0.03 core of the launcher over an episode). From there on, as
-    before the first episode and on the simulation clock, it looks every `WATCH_PERIOD_S`:
-    a silence is noted, judged and stopped on the same grid points as when it always looked.
-    `now_s`: monotonic s."""
-    if isinstance(silence, SupervisorSilence) and silence.episode_begun and silence.last_state_s is not None:
+    On the wall clock and one host, while the supervisor's states come, nothing can be judged
+    before the newest is `NOTE_AFTER_S` old (timed by `arrival_estimate_s`): the job sleeps
+    until then (the first point of the shared `WATCH_PERIOD_S` grid at or after it), instead
+    of looking 50 times a second to find a fresh state each time (0.03 core of the launcher
+    over an episode). From there on, as before the first episode, across hosts (a state is
+    then timed by the look that takes it in) and on the simulation clock, it looks every
+    `WATCH_PERIOD_S`: a silence is noted, judged and stopped on the same grid points as when
+    it always looked. `now_s`: monotonic s."""
+    if isinstance(silence, SupervisorSilence) and silence.one_host and silence.episode_begun \
+            and silence.last_state_s is not None:
         look_s = first_grid_time_s(silence.last_state_s + NOTE_AFTER_S, WATCH_PERIOD_S, WALL_GRID_PHASE_S)
         if look_s - now_s > WATCH_PERIOD_S / 10:
             return look_s - now_s
@@ -112,7 +114,7 @@ class _EpisodeFeed:
         for rx in self.states.drain():
             stamp_s = rx.msg.stamp_ns / 1e9
             heard_s = rx.rx_monotonic  # the look that took it in (a ring channel's)
-            if isinstance(self.silence, SupervisorSilence):
+            if isinstance(self.silence, SupervisorSilence) and self.silence.one_host:
                 heard_s = arrival_estimate_s(heard_s, looked_s, stamp_s - wall_minus_monotonic_s)
             self.silence.heard(heard_s, rx.msg.episode_id, stamp_s)
             line = self.watch.state(rx.msg)

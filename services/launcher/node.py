@@ -241,10 +241,11 @@ class Launcher:
 
     def _on_signal(self, signum: int) -> None:
         """SIGINT/SIGTERM, in the relay's thread (never the handler: `say` and `set` take locks)."""
-        if not self.stop_requested.is_set():
-            say(f"{signal.Signals(signum).name} received: shutting down")
+        first = not self.stop_requested.is_set()
         self.interrupted = True
-        self.stop_requested.set()
+        self.stop_requested.set()  # before the line: a failing write must not keep the stop from coming
+        if first:
+            say(f"{signal.Signals(signum).name} received: shutting down")
 
     def _start_services(self, router: RouterProcess, watcher: LivelinessWatcher, t0: float) -> threading.Thread:
         """Open the logs, start every service (the recorder alive first), wait until all are

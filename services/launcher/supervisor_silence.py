@@ -68,6 +68,12 @@ class SupervisorSilence:
         self.episode_begun = False
         self._excused_said_s = -math.inf
 
+    @property
+    def one_host(self) -> bool:
+        """Whether the supervisor runs on this host (its process id is asked for): its stamps
+        are then on this host's clock."""
+        return self._supervisor_pid is not None
+
     def tick(self, now_s: float) -> None:
         """At every loop of the job, monotonic `now_s` s: keeps the machine's CPU figures."""
         if self._judge is not None:

@@ -177,7 +177,11 @@ class ServiceNode:
     def open(self) -> None:
         if self._install_signal_handlers:
             self._signals.install()  # main thread only; acted on in the relay's thread (`signals`)
-        self._session = open_session(self.profile, self.mode, self.connect_timeout_s, user=self.name)
+        try:
+            self._session = open_session(self.profile, self.mode, self.connect_timeout_s, user=self.name)
+        except BaseException:
+            self._signals.restore()
+            raise
         self._opened_s = time.monotonic()
         if not isinstance(self.clock, WallClock):
             self.clock.attach(self)

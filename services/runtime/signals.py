@@ -14,11 +14,14 @@ pipe (`os.write`, no Python lock) and returns; a daemon thread reads the pipe an
 
 from __future__ import annotations
 
+import logging
 import os
 import signal
 import threading
 from collections.abc import Callable, Iterable
 from typing import Any
+
+log = logging.getLogger(__name__)
 
 #: The signals a service stops on.
 STOP_SIGNALS: tuple[signal.Signals, ...] = (signal.SIGINT, signal.SIGTERM)
@@ -38,7 +41,6 @@ class SignalRelay:
         self.signals = tuple(signals)
         self.name = name
         self._previous: dict[int, Any] = {}
-        self._read_fd: int | None = None
         self._write_fd: int | None = None
         self._thread: threading.Thread | None = None
 
@@ -50,9 +52,9 @@ class SignalRelay:
         """Take over `signals` (main thread only); True if installed."""
         if self.installed or threading.current_thread() is not threading.main_thread():
             return self.installed
-        self._read_fd, self._write_fd = os.pipe2(os.O_CLOEXEC)
+        read_fd, self._write_fd = os.pipe2(os.O_CLOEXEC)
         os.set_blocking(self._write_fd, False)  # a full pipe drops the signal, never blocks the handler
-        self._thread = threading.Thread(target=self._relay, args=(self._read_fd,), name=self.name, daemon=True)
+        self._thread = threading.Thread(target=self._relay, args=(read_fd,), name=self.name, daemon=True)
         self._thread.start()
         for sig in self.signals:
             self._previous[sig] = signal.signal(sig, self._handler)
@@ -69,17 +71,26 @@ class SignalRelay:
             pass
 
     def _relay(self, read_fd: int) -> None:
-        while True:
-            try:
-                data = os.read(read_fd, 64)
-            except InterruptedError:
-                continue
-            except OSError:
-                return
-            if not data:  # the write end closed: `restore`
-                return
-            for signum in data:
-                self.on_signal(signum)
+        """The relay thread: reads signal numbers until `restore` closes the write end, then
+        closes its read end itself. A failing `on_signal` is logged; the next signal still
+        comes through."""
+        try:
+            while True:
+                try:
+                    data = os.read(read_fd, 64)
+                except InterruptedError:
+                    continue
+                except OSError:
+                    return
+                if not data:  # the write end closed: `restore`
+                    return
+                for signum in data:
+                    try:
+                        self.on_signal(signum)
+                    except Exception:  # noqa: BLE001 - a stop signal must never go unheard after one error
+                        log.exception("%s: acting on signal %d failed", self.name, signum)
+        finally:
+            os.close(read_fd)
 
     def restore(self, join_timeout_s: float = 1.0) -> None:
         """Put the previous handlers back (main thread only) and end the relay thread."""
@@ -90,10 +101,7 @@ class SignalRelay:
         self._previous.clear()
         write_fd, self._write_fd = self._write_fd, None
         assert write_fd is not None
-        os.close(write_fd)  # the relay reads what is left, then end of file
+        os.close(write_fd)  # the relay reads what is left, then end of file, and closes its end
         thread, self._thread = self._thread, None
         if thread is not None and thread is not threading.current_thread():
             thread.join(join_timeout_s)
-        read_fd, self._read_fd = self._read_fd, None
-        if read_fd is not None and (thread is None or not thread.is_alive()):
-            os.close(read_fd)  # one still inside `on_signal` keeps its descriptor

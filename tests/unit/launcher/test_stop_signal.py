@@ -19,6 +19,7 @@ def test_a_stop_signal_while_the_main_thread_holds_the_stop_lock_stops_the_launc
     from pathlib import Path
     from services.launcher.core import LaunchOptions
     from services.launcher.node import Launcher
+    from services.launcher.processes import stdout_outlet
     from services.runtime.profile import load_profile_file
     launcher = Launcher(load_profile_file("sim"), LaunchOptions(run_id="t", recording_dir=Path({str(tmp_path)!r})))
     launcher._signals.install()
@@ -26,7 +27,8 @@ def test_a_stop_signal_while_the_main_thread_holds_the_stop_lock_stops_the_launc
         os.kill(os.getpid(), signal.SIGTERM)
         time.sleep(0.3)
     stopped = launcher.stop_requested.wait(5.0)
-    launcher._signals.restore()
+    launcher._signals.restore()  # joins the relay thread: its line is queued by now
+    stdout_outlet().flush(5.0)  # the launcher's own lines go out through a writer thread
     print("stopped" if stopped and launcher.interrupted else "running", flush=True)
     """
     done = subprocess.run([sys.executable, "-c", textwrap.dedent(script)], cwd=ROOT, capture_output=True,

@@ -77,9 +77,11 @@ def test_the_reader_keeps_its_files_open_and_reads_them_again_in_place(tmp_path)
         stat.write_text(f"cpu  1 0 1 100 0 0 0 {steal_ticks} 0 0\ncpu0 1 0 1 100 0 0 0 {steal_ticks} 0 0\n")
 
     write(2_000_000, 0)
+    before = set(os.listdir("/proc/self/fd"))
     reader = MachineReader(str(tmp_path))
-    first = reader(1.0)
     fds = sorted(os.listdir("/proc/self/fd"))
+    assert len(set(fds) - before) == 2  # its two files, held open
+    first = reader(1.0)
     with open(pressure, "r+") as f, open(stat, "r+") as g:  # rewritten in place: the same files
         f.write("some avg10=0.00 avg60=0.00 avg300=0.00 total=5000000\n")
         g.seek(0)

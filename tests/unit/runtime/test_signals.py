@@ -62,6 +62,7 @@ def test_on_signal_gets_the_number_in_the_relay_thread_and_restore_puts_the_old_
         arrived.set()
 
     relay = SignalRelay(on_signal, name="relay under test")
+    fds_before = sorted(os.listdir("/proc/self/fd"))
     assert relay.install() and relay.installed
     assert relay.install()  # idempotent: one thread, one pipe
     try:
@@ -74,7 +75,42 @@ def test_on_signal_gets_the_number_in_the_relay_thread_and_restore_puts_the_old_
     assert not relay.installed
     assert {sig: signal.getsignal(sig) for sig in before} == before
     assert not any(t.name == "relay under test" for t in threading.enumerate())
+    assert sorted(os.listdir("/proc/self/fd")) == fds_before  # both ends of the pipe closed
     relay.restore()  # idempotent
+
+
+def test_a_failing_on_signal_is_logged_and_the_next_signal_still_comes_through(caplog):
+    got: list[int] = []
+    second = threading.Event()
+
+    def on_signal(signum: int) -> None:
+        got.append(signum)
+        if len(got) == 1:
+            raise OSError("log file gone")
+        second.set()
+
+    relay = SignalRelay(on_signal, signals=(signal.SIGUSR1,), name="failing relay")
+    relay.install()
+    try:
+        os.kill(os.getpid(), signal.SIGUSR1)
+        assert wait_for(lambda: len(got) == 1)
+        os.kill(os.getpid(), signal.SIGUSR1)
+        assert second.wait(5.0)
+    finally:
+        relay.restore()
+    assert got == [signal.SIGUSR1, signal.SIGUSR1]
+    assert "failing relay: acting on signal" in caplog.text and "log file gone" in caplog.text
+
+
+def wait_for(condition, timeout_s: float = 5.0) -> bool:
+    import time
+
+    end = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > end:
+            return False
+        time.sleep(0.005)
+    return True
 
 
 def test_install_outside_the_main_thread_changes_nothing():
