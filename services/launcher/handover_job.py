@@ -39,15 +39,15 @@ SELF_STALL_S = 0.08
 
 
 def arrival_estimate_s(taken_s: float, previous_look_s: float, sent_s: float) -> float:
-    """When a supervisor state taken in at `taken_s` arrived (all monotonic s): not before the
-    previous look (`previous_look_s`, which took every state there was) nor before it was sent
-    (`sent_s`: its stamp on this host's monotonic clock), and not after it was taken in.
+    """When a supervisor state taken in at `taken_s` arrived (all monotonic s): its send time
+    (`sent_s`, its stamp on this host's monotonic clock) when that falls between the previous
+    look (`previous_look_s`, which took every state there was) and `taken_s`, as for a state
+    delivered at once; otherwise `taken_s`, the look that took it in, as the job always timed
+    states (one that waited in delivery on a busy machine, or a stamp off this host's clock).
 
-    The job looks up to 80 ms apart (`seconds_to_next_look`): timed by the look, a silence
-    would be seen up to that much late. Used on one host only, where the stamp is within a
-    delivery of the arrival (a step of the wall clock between two looks can move it by at
-    most the time between them); another host's clock may be off by more than a look."""
-    return min(taken_s, max(previous_look_s, sent_s))
+    The job looks up to 80 ms apart (`seconds_to_next_look`): timed by the look, a freeze
+    right after a state would be seen up to that much late. Used on one host only."""
+    return sent_s if previous_look_s < sent_s <= taken_s else taken_s
 
 
 def seconds_to_next_look(silence: SupervisorSilence | SimClockSilence, now_s: float) -> float:
