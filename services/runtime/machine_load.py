@@ -14,12 +14,11 @@ wait (``schedstat``), which the kernel adds only once the thread gets a CPU.
 
 from __future__ import annotations
 
-import os
 from collections import deque
 from dataclasses import dataclass
 from io import FileIO
 
-from services.runtime.starvation import parse_steal
+from services.runtime.starvation import parse_steal, reread_text
 
 #: Machine readings are taken at most this often, s (two small `/proc` reads in place).
 SAMPLE_PERIOD_S = 0.02
@@ -80,12 +79,7 @@ class MachineReader:
 
     @staticmethod
     def _read(file: FileIO | None) -> str | None:
-        if file is None:
-            return None
-        try:
-            return os.pread(file.fileno(), 256, 0).decode("ascii", "replace")
-        except (OSError, ValueError):  # ValueError: closed
-            return None
+        return None if file is None or file.closed else reread_text(file.fileno(), 256)
 
     def __call__(self, at_s: float) -> MachineReading:
         """The machine's CPU pressure and steal now, stamped `at_s` (None where unreadable)."""

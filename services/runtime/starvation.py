@@ -126,15 +126,6 @@ class WakeSampler:
         except OSError:
             return None
 
-    @staticmethod
-    def _read(fd: int | None, size: int) -> str | None:
-        if fd is None:
-            return None
-        try:
-            return os.pread(fd, size, 0).decode("ascii", "replace")
-        except OSError:
-            return None
-
     def sample(self) -> WakeSample:
         """This thread's `WakeSample` now."""
         return self.raw().parsed()
@@ -142,9 +133,9 @@ class WakeSampler:
     def raw(self) -> RawWake:
         """This thread's figures now, unparsed: the reads only (a heartbeat thread takes one
         at every wake and parses two only when the wake was late)."""
-        schedstat = self._read(self._schedstat_fd, 128)
-        stat = self._read(self._stat_fd, 512)
-        main = self._read(self._main_schedstat_fd, 128)
+        schedstat = reread_text(self._schedstat_fd, 128)
+        stat = reread_text(self._stat_fd, 512)
+        main = reread_text(self._main_schedstat_fd, 128)
         t = os.times()
         return RawWake(time.monotonic(), schedstat, t.user + t.system, stat, main)
 
@@ -161,6 +152,17 @@ class WakeSampler:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def reread_text(fd: int | None, size: int) -> str | None:
+    """The first `size` bytes of the ``/proc`` file open as `fd`, read again from its start
+    (``pread`` at 0: no open and close per reading); None when `fd` is None or unreadable."""
+    if fd is None:
+        return None
+    try:
+        return os.pread(fd, size, 0).decode("ascii", "replace")
+    except OSError:
+        return None
 
 
 def sample_wake() -> WakeSample:
