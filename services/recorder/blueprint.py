@@ -196,12 +196,15 @@ def signal_view(title: str, signals: tuple[Signal, ...]) -> rrb.TimeSeriesView:
     return rrb.TimeSeriesView(name=title, origin="/", contents=contents, overrides=overrides)
 
 
-def blueprint(robot_name: str | None, follow_latest: bool = False) -> rrb.Blueprint:
+def blueprint(robot_name: str | None, follow_latest: bool = False, replay_in_loop: bool = False) -> rrb.Blueprint:
     """3-D view, signal panels and event log (sent once at the start of a recording).
 
     `follow_latest`: the time cursor follows the newest data (the end of a recording); used
-    for screenshots. By default the viewer's own choice applies.
+    for screenshots. `replay_in_loop`: the viewer plays the recording over and over (a viewer
+    kept busy: the load of a user watching a replay, `tests/integration/headless_viewer.py`).
+    By default the viewer's own choice applies.
     """
+    play_state = "following" if follow_latest else ("playing" if replay_in_loop else None)
     return rrb.Blueprint(
         rrb.Horizontal(
             rrb.Vertical(
@@ -218,6 +221,6 @@ def blueprint(robot_name: str | None, follow_latest: bool = False) -> rrb.Bluepr
         ),
         rrb.BlueprintPanel(state="collapsed"),
         rrb.SelectionPanel(state="collapsed"),
-        rrb.TimePanel(timeline=TIMELINE_STAMP, state="expanded",
-                      play_state="following" if follow_latest else None),
+        rrb.TimePanel(timeline=TIMELINE_STAMP, state="expanded", play_state=play_state,
+                      loop_mode="all" if replay_in_loop else None),
     )

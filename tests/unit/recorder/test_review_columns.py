@@ -99,3 +99,15 @@ def test_static_styles_cover_every_point_entity_and_derived_entity():
     assert {"world/skeleton/raw", "world/skeleton/bones", "world/human/hand_correction",
             "world/object/estimate", "signals/gripper_mode"} <= entities
     assert blueprint("baxter") is not None and blueprint(None) is not None
+
+
+def test_the_blueprint_sets_the_time_panel_only_when_asked():
+    """The recorder's own blueprint leaves playback to the viewer; screenshots follow the newest
+    data; the viewer load of the busy-machine tests replays the recording in a loop."""
+    def playback(**kwargs):
+        panel = blueprint("baxter", **kwargs).time_panel
+        return panel.play_state, panel.loop_mode
+
+    assert playback() == (None, None)
+    assert playback(follow_latest=True) == ("following", None)
+    assert playback(replay_in_loop=True) == ("playing", "all")
