@@ -13,6 +13,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, TypeVar
 
+from bus_schema import topics
+from services.launcher.arm_stop import ArmStop
 from services.runtime import Profile, ServiceNode
 
 if TYPE_CHECKING:
@@ -84,13 +86,21 @@ def demo_job(abort_reason: Callable[[], str | None], say: Callable[[str], None])
     return run
 
 
-def run_on_bus(bus_profile: Profile, stop_requested: threading.Event, job: Callable[[ServiceNode], ResultT]) -> ResultT:
+def run_on_bus(bus_profile: Profile, stop_requested: threading.Event, job: Callable[[ServiceNode], ResultT],
+               arm_stop: ArmStop | None = None) -> ResultT:
     """Run `job` on a bus node of the launcher's own (``launcher``, on `bus_profile`), which
-    stops once `stop_requested` is set."""
+    stops once `stop_requested` is set. `arm_stop`: given a ``motion/stop`` publisher of that
+    node while the job runs (the monitor thread's protective stop)."""
     with ServiceNode("launcher", bus_profile, install_signal_handlers=False, clock_role="observer") as node:
         def stop_when_asked() -> None:
             stop_requested.wait()
             node.request_stop()
 
         threading.Thread(target=stop_when_asked, daemon=True).start()
-        return job(node)
+        if arm_stop is not None:
+            arm_stop.attach(node.publisher(topics.MOTION_STOP))
+        try:
+            return job(node)
+        finally:
+            if arm_stop is not None:
+                arm_stop.detach()

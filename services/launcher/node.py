@@ -29,6 +29,7 @@ import threading
 import time
 from pathlib import Path
 
+from services.launcher.arm_stop import ArmStop
 from services.launcher.bus_host import host_bus
 from services.launcher.core import (
     EXIT_FAILED,
@@ -95,6 +96,8 @@ class Launcher:
         self.wakeup = MonitorWakeup()
         self.stop_requested: threading.Event = WakingEvent(self.wakeup)
         self.failure: str | None = None
+        #: The monitor's protective stop of the arm while a job runs on the bus.
+        self.arm_stop = ArmStop()
         self.episode_running = False
         self.shutting_down = False
         self.interrupted = False
@@ -149,6 +152,7 @@ class Launcher:
                         self._start(name)
                     else:
                         del self.children[name]
+                        self.arm_stop.send(decision.reason)  # first (only while the job's node is open)
                         self._fail(decision.reason)
                         self.stop_requested.set()
             for name in self.wakeup.exited():  # an exit no pass will handle must not wake it again
@@ -322,7 +326,7 @@ class Launcher:
         else:
             on_bus = demo_job(self._abort_reason, say)
         self.episode_running = True  # no safety service is restarted from here on
-        outcome = run_on_bus(self.bus_profile, self.stop_requested, on_bus)
+        outcome = run_on_bus(self.bus_profile, self.stop_requested, on_bus, self.arm_stop)
         self.episode_running = False
         if self.interrupted:
             return EXIT_INTERRUPTED

@@ -219,11 +219,19 @@ def sent_at(inj: Injection, msg: Any) -> float:
 
 
 def detection_time(rec: RunRecord, inj: Injection) -> float | None:
-    """When the supervisor noticed the fault (test monotonic s): the first supervisor state
-    sent after the injection whose reason names the service, or the supervisor's own
-    ``service fault service=<name>`` log line (report-only services change no state)."""
+    """When the stack noticed the fault (test monotonic s): the first supervisor state sent
+    after the injection whose reason names the service, the supervisor's own ``service fault
+    service=<name>`` log line (report-only services change no state), or the launcher's
+    notice: the protective stop it sent naming the service (by its stamp), or its
+    ``FAILURE:`` line (by when this test read it: later than the launcher wrote it when this
+    process waits for a CPU)."""
     service = inj.plan.service
     candidates = []
+    for _stamp, msg in by_stamp(rec.stops):
+        t = sent_at(inj, msg)
+        if t >= inj.at_s and msg.protective and msg.source == "launcher" and service in msg.reason:
+            candidates.append(t)
+            break
     for _stamp, msg in by_stamp(rec.states):
         t = sent_at(inj, msg)
         if t >= inj.at_s and service in msg.reason and (msg.phase == "protective_stop" or "silent" in msg.reason

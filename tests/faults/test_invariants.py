@@ -133,3 +133,19 @@ def test_latencies_come_from_the_senders_stamps_not_a_late_observer():
                                             "stamp_ns": m.stamp_ns + int(shift * 1e9)}))
                              for t, m in getattr(rec2, name)])
     assert abs(judge(rec2).stop_s["kill motion @ transfer"] - 0.12) < 1e-6
+
+
+def test_a_killed_supervisor_is_detected_when_the_launcher_acts_not_when_the_test_reads_its_line():
+    """The launcher's FAILURE line reached this (starved) test 0.2 s after the launcher's
+    protective stop was sent: the detection is the stop's stamp, the stack's own act. A stop
+    from another source, or not naming the service, is no detection of it."""
+    rec = record([0.0] * 150, stop_at=1.0, service="supervisor")
+    rec.stops = [(1.2, MotionStop(**{**at(0.93), "source": "launcher"}, protective=True,
+                                  reason="protective stop: supervisor was killed by SIGKILL"))]
+    rec.lines = [(1.2, "[launcher] FAILURE: supervisor was killed by SIGKILL")]
+    v = judge(rec)
+    assert abs(v.detection_s["kill supervisor @ transfer"] - 0.03) < 1e-9
+    for stop in (MotionStop(**{**at(0.93), "source": "bridge"}, protective=True, reason="protective stop: supervisor"),
+                 MotionStop(**{**at(0.93), "source": "launcher"}, protective=True, reason="protective stop: gripper")):
+        rec.stops = [(1.2, stop)]
+        assert abs(judge(rec).detection_s["kill supervisor @ transfer"] - 0.3) < 1e-9  # the line, read late
