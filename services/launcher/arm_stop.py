@@ -1,12 +1,14 @@
 """The launcher's protective stop of the arm, sent by the thread that learns of a failure first.
 
-When a safety service dies during the job (the supervisor above all: nothing else then stops
-the arm), the launcher's monitor thread sees its process exit at once (its process file
-descriptor, `services.launcher.wakeup`). Before, the stop then went through two more of the
-launcher's threads (the stop request's waiter, then the job's loop, which sends it), each a wake
-and a turn at the GIL; beside a heavy load (the Rerun viewer replaying a run with software
-rendering) that chain once took 133 ms. The monitor now sends the stop itself, first, through
-this object; the job still sends its own when it ends (a second stop changes nothing).
+When a child dies during a bus job and is not restarted (a safety service mid-episode, the
+supervisor above all: nothing else then stops the arm; or any service out of restarts), the
+launcher's monitor thread sees its process exit at once (its process file descriptor,
+`services.launcher.wakeup`). Before, the stop then went through two more of the launcher's
+threads (the stop request's waiter, then the job's loop, which sends it), each a wake and a turn
+at the GIL; beside a heavy load (the Rerun viewer replaying a run with software rendering) that
+chain once took 133 ms. The monitor now sends the stop itself, first, through this object (the
+handover job and the demo alike). The handover job still sends its own stop as it ends, through
+the same publisher (`publisher`): one numbering of the launcher's stops, each recorded.
 """
 
 from __future__ import annotations
@@ -34,9 +36,16 @@ class ArmStop:
             self._publisher = publisher
 
     def detach(self) -> None:
-        """The job's node is closing: nothing is sent from here on."""
+        """The job's node is closing: no send starts from here on (one already putting may
+        fail with the closing session; `send` never raises)."""
         with self._lock:
             self._publisher = None
+
+    @property
+    def publisher(self) -> Any:
+        """The attached `motion/stop` publisher (None when no job's node is open)."""
+        with self._lock:
+            return self._publisher
 
     def send(self, reason: str) -> bool:
         """Send ``protective stop: <reason>`` unless a stop was sent already or no node is open;

@@ -124,10 +124,16 @@ class Launcher:
             self.wakeup.watch(name, child.pid)
         return child
 
-    def _fail(self, reason: str) -> None:
+    def _fail(self, reason: str, stop_arm: bool = False) -> None:
+        """Take `reason` as the run's failure (the first one counts) and say it; `stop_arm`:
+        send the protective stop first (`ArmStop`: only while a job's node is open). The failure
+        is recorded before the stop's put, which may wait on a full link: the job's loop sees it
+        meanwhile and stops the arm itself."""
         with self._lock:
             if self.failure is None:
                 self.failure = reason
+        if stop_arm:
+            self.arm_stop.send(reason)
         say(f"FAILURE: {reason}")
 
     def _monitor(self, watcher: LivelinessWatcher) -> None:
@@ -152,8 +158,7 @@ class Launcher:
                         self._start(name)
                     else:
                         del self.children[name]
-                        self.arm_stop.send(decision.reason)  # first (only while the job's node is open)
-                        self._fail(decision.reason)
+                        self._fail(decision.reason, stop_arm=True)
                         self.stop_requested.set()
             for name in self.wakeup.exited():  # an exit no pass will handle must not wake it again
                 if self.shutting_down or name not in self.children:
@@ -322,7 +327,7 @@ class Launcher:
                                     "([services.supervisor]); use --job demo or check without one")
             on_bus = handover_job(self._episodes(), self.options.episode_timeout_s, self._abort_reason, say,
                                   None if self.profile.allow_non_loopback else self._supervisor_pid,
-                                  self._delivery_pids())
+                                  self._delivery_pids(), self.arm_stop)
         else:
             on_bus = demo_job(self._abort_reason, say)
         self.episode_running = True  # no safety service is restarted from here on

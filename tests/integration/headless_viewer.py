@@ -10,8 +10,11 @@ of the hog tests; `ViewerLoad.cores` says how much it took in each run.
 
 Kept to the machine: the viewer listens on 127.0.0.1 only, its analytics are disabled in a
 private configuration folder (its first start sends nothing; `rerun analytics disable` there
-makes sure), its memory is bounded (``--memory-limit``), and the viewer and Xvfb are stopped
-by their process ids, even when the test fails.
+makes sure), and the viewer and Xvfb are stopped by their process ids, even when the test
+fails (and by the kernel when this process dies: ``PR_SET_PDEATHSIG``). Its memory is not
+bounded: replaying with software rendering it grows about 20 MB a second whatever
+``--memory-limit`` says (the limit is kept for the data it holds); a twenty-episode run ends
+near 3.5 GB, which `ViewerLoad.rss_mb` reports.
 
 Needs (Debian): ``apt-get install -y xvfb mesa-vulkan-drivers``; without them the tests that
 use it are skipped with that line.
@@ -19,10 +22,12 @@ use it are skipped with that line.
 
 from __future__ import annotations
 
+import ctypes
 import glob
 import os
 import select
 import shutil
+import signal
 import subprocess
 import time
 from collections.abc import Iterator
@@ -32,11 +37,13 @@ from pathlib import Path
 import psutil
 import pytest
 
-#: The viewer's memory bound (Rerun drops the oldest data past it).
+#: The viewer's bound on the data it holds (Rerun drops the oldest past it; its own memory
+#: grows beyond it while it replays: see the module docstring).
 MEMORY_LIMIT = "1GB"
 #: A viewer that is drawing takes at least this much CPU (cores) in its first seconds.
 DRAWING_CORES = 0.3
 _INSTALL = "apt-get install -y xvfb mesa-vulkan-drivers"
+_PR_SET_PDEATHSIG = 1
 
 
 def missing() -> str | None:
@@ -86,35 +93,48 @@ class ViewerLoad:
         return self.process.memory_info().rss / 1e6
 
 
+def _die_with_parent() -> None:  # runs in the child between fork and exec
+    ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def _read_line(fd: int, timeout_s: float) -> bytes:
+    """Bytes from `fd` up to a newline (b"" or a partial line when it did not come in time)."""
+    text, deadline = b"", time.monotonic() + timeout_s
+    while not text.endswith(b"\n"):
+        ready, _, _ = select.select([fd], [], [], max(deadline - time.monotonic(), 0.0))
+        chunk = os.read(fd, 64) if ready else b""
+        if not chunk:
+            break
+        text += chunk
+    return text
+
+
 def _start_xvfb(log_path: Path, timeout_s: float) -> tuple[subprocess.Popen, str]:
-    """A private X display: (Xvfb's process, ``:N``)."""
+    """A private X display: (Xvfb's process, ``:N``). Xvfb is stopped again when it does not
+    say its display, whatever ends the wait."""
     read_fd, write_fd = os.pipe()
+    xvfb = None
     try:
         with log_path.open("wb") as log:
             xvfb = subprocess.Popen(["Xvfb", "-displayfd", str(write_fd), "-nolisten", "tcp",
                                      "-screen", "0", "1280x800x24"], pass_fds=(write_fd,),
-                                    stdin=subprocess.DEVNULL, stdout=log, stderr=log)
+                                    stdin=subprocess.DEVNULL, stdout=log, stderr=log, preexec_fn=_die_with_parent)
         os.close(write_fd)
         write_fd = -1
         # Up to the newline: Xvfb may write the number and the newline apart, and dies on a
         # pipe closed in between ("Cannot write display number to fd").
-        text, deadline = b"", time.monotonic() + timeout_s
-        while not text.endswith(b"\n"):
-            ready, _, _ = select.select([read_fd], [], [], max(deadline - time.monotonic(), 0.0))
-            chunk = os.read(read_fd, 64) if ready else b""
-            if not chunk:
-                break
-            text += chunk
-        number = text.decode(errors="replace").strip()
+        text = _read_line(read_fd, timeout_s)
+        if not (text.endswith(b"\n") and text.strip().isdigit()):
+            raise RuntimeError(f"Xvfb did not say its display in {timeout_s:.0f} s: "
+                               f"{log_path.read_text(errors='replace')[-500:]}")
+    except BaseException:
+        _stop(xvfb)
+        raise
     finally:
         os.close(read_fd)
         if write_fd >= 0:
             os.close(write_fd)
-    if not number.isdigit():
-        xvfb.kill()
-        xvfb.wait(10.0)
-        raise RuntimeError(f"Xvfb did not start in {timeout_s:.0f} s: {log_path.read_text(errors='replace')[-500:]}")
-    return xvfb, f":{number}"
+    return xvfb, f":{text.decode().strip()}"
 
 
 def _viewer_env(workdir: Path, display: str) -> dict[str, str]:
@@ -155,9 +175,9 @@ def headless_viewer(recording: Path, workdir: Path, robot_name: str = "baxter",
     if reason is not None:
         pytest.skip(f"the headless Rerun viewer cannot run here: {reason}")
     workdir.mkdir(parents=True, exist_ok=True)
-    xvfb = viewer = None
+    xvfb, display = _start_xvfb(workdir / "xvfb.log", start_timeout_s)
+    viewer = None
     try:
-        xvfb, display = _start_xvfb(workdir / "xvfb.log", start_timeout_s)
         env = _viewer_env(workdir, display)
         binary = viewer_binary()
         subprocess.run([str(binary), "analytics", "disable"], env=env, check=True, timeout=30,
@@ -169,15 +189,18 @@ def headless_viewer(recording: Path, workdir: Path, robot_name: str = "baxter",
             viewer = subprocess.Popen([str(binary), "--bind", "127.0.0.1", "--port", "auto",
                                        "--memory-limit", MEMORY_LIMIT, "--window-size", "1280x800",
                                        str(recording), str(layout)],
-                                      env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=log)
+                                      env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=log,
+                                      preexec_fn=_die_with_parent)
         load = ViewerLoad(psutil.Process(viewer.pid))
         _wait_drawing(load, viewer, log_path, start_timeout_s)
         yield load
     finally:
-        _stop(viewer)
-        _stop(xvfb)
-        with suppress(OSError):
-            shutil.rmtree(workdir / "xdg_cache_home")
+        try:
+            _stop(viewer)
+        finally:
+            _stop(xvfb)
+            with suppress(OSError):
+                shutil.rmtree(workdir / "xdg_cache_home")
 
 
 def _wait_drawing(load: ViewerLoad, viewer: subprocess.Popen, log_path: Path, timeout_s: float) -> None:

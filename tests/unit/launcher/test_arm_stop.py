@@ -14,18 +14,23 @@ import pytest
 
 from services.launcher.arm_stop import ArmStop
 from services.launcher.core import LaunchOptions
+from services.launcher.handover_job import _EpisodeFeed
+from services.launcher.supervisor_silence import SupervisorSilence
 from services.launcher.node import Launcher
 from services.launcher.processes import Child
 from services.runtime.profile import load_profile_file
 
 
 class FakePublisher:
-    def __init__(self, fail: bool = False) -> None:
+    def __init__(self, fail: bool = False, on_put=None) -> None:
         self.fail = fail
+        self.on_put = on_put
         self.puts: list[tuple[dict, str]] = []
 
     def put(self, **fields):
         self.puts.append((fields, threading.current_thread().name))
+        if self.on_put is not None:
+            self.on_put()
         if self.fail:
             raise RuntimeError("session closed")
 
@@ -64,7 +69,8 @@ def test_the_monitor_stops_the_arm_when_a_safety_service_dies_in_the_job(tmp_pat
         launcher.children["supervisor"] = child
         launcher.wakeup.watch("supervisor", child.pid)
         launcher.episode_running = True
-        publisher = FakePublisher()
+        failure_at_put: list[str | None] = []
+        publisher = FakePublisher(on_put=lambda: failure_at_put.append(launcher.failure))
         launcher.arm_stop.attach(publisher)
         monitor = threading.Thread(target=launcher._monitor, args=(NoLiveliness(),), name="monitor")
         monitor.start()
@@ -76,6 +82,9 @@ def test_the_monitor_stops_the_arm_when_a_safety_service_dies_in_the_job(tmp_pat
                                               "safety service, not restarted mid-episode", "protective": True},
                                    "monitor")]
         assert launcher.failure is not None and launcher.stop_requested.is_set()
+        # The failure was recorded before the put (which may wait on a full link): the job's
+        # loop sees it meanwhile.
+        assert failure_at_put == [launcher.failure]
     finally:
         if child.proc.poll() is None:
             child.proc.kill()
@@ -84,3 +93,28 @@ def test_the_monitor_stops_the_arm_when_a_safety_service_dies_in_the_job(tmp_pat
         except subprocess.TimeoutExpired:
             pass
         launcher.wakeup.close()
+
+
+class FeedNode:
+    """Just enough of a node for the handover job's feed: no second stop publisher allowed."""
+
+    def subscribe(self, topic, queue_size=256, wake=True):
+        return None
+
+    def publisher(self, topic):
+        raise AssertionError(f"a second {topic.suffix} publisher of the launcher's node")
+
+
+def test_the_jobs_stop_goes_through_the_monitors_publisher():
+    """Two publishers of one source number their messages from 0 each, and the recorder logs a
+    stop once per (source, seq): the job's stop after the monitor's would be lost from the
+    recording. The job sends through the publisher `ArmStop` was given."""
+    publisher = FakePublisher()
+    arm_stop = ArmStop()
+    arm_stop.attach(publisher)
+    feed = _EpisodeFeed(FeedNode(), say=lambda line: None, silence=SupervisorSilence(), stop_pub=arm_stop.publisher)
+    assert arm_stop.send("supervisor was killed by SIGKILL")
+    result = feed.stopped("supervisor was killed by SIGKILL")
+    assert not result.ok
+    assert [fields["reason"] for fields, _thread in publisher.puts] == [
+        "protective stop: supervisor was killed by SIGKILL"] * 2
