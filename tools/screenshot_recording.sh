@@ -6,7 +6,8 @@
 # Runs the Rerun viewer (the `rerun` of the project's venv) under a private Xvfb display with
 # Mesa's software Vulkan (llvmpipe), with the recorder's blueprint set to follow the newest
 # data (so the 3-D view shows the end of the run), and uses the viewer's own
-# `--screenshot-to`. The viewer listens on 127.0.0.1 only, on a free port.
+# `--screenshot-to`. The viewer listens on 127.0.0.1 only, on a free port, with its usage
+# analytics disabled in a private configuration folder.
 # The viewer takes its picture after a few frames, not when it has read the whole file: the
 # recorder's file (thousands of small chunks, no footer) is first compacted with
 # `rerun rrd optimize` into a temporary copy (~500 chunks), which the viewer reads in time;
@@ -64,7 +65,12 @@ fi
 
 mkdir -p "$(dirname "$output")"
 rm -f "$output"
-mkdir -m 700 "$work/xdg"
+mkdir -m 700 "$work/xdg" "$work/config" "$work/data"
+# The viewer's usage analytics (on by default in a user's ~/.config/rerun) stay off: a private
+# configuration folder with them disabled, so the viewer sends nothing off this machine.
+export XDG_CONFIG_HOME=$work/config XDG_DATA_HOME=$work/data
+"$rerun_cli" analytics disable >/dev/null 2>&1 \
+  || { echo "error: could not disable the viewer's analytics in $work/config" >&2; exit 1; }
 if ! DISPLAY=$display XDG_RUNTIME_DIR=$work/xdg WGPU_BACKEND=vulkan RUST_LOG=error \
      timeout 300 "$rerun_cli" --bind 127.0.0.1 --port auto --window-size "$size" \
      --screenshot-to "$output" "$work/compact.rrd" "$work/handover.rbl" >"$work/viewer.log" 2>&1; then
