@@ -70,7 +70,8 @@ OBJECT = _T("perception/object", m.ObjectEstimate, "state", 30, "tracker", "obje
 TRANSFER = _T("planner/transfer", m.TransferTarget, "state", 5, "planner", "DJT transfer point")
 MOTION_GOAL = _T("motion/goal", m.MotionGoal, "safety", 0, "supervisor", "motion goals")
 MOTION_STATUS = _T("motion/status", m.MotionStatus, "state", 50, "motion", "motion progress")
-MOTION_STOP = _T("motion/stop", m.MotionStop, "safety", 0, "supervisor", "release/protective stop")
+MOTION_STOP = _T("motion/stop", m.MotionStop, "safety", 0, "supervisor", "release/protective stop (also the "
+                "launcher, and the bridge when the supervisor dies mid-episode)")
 GRIPPER_COMMAND = _T("gripper/command", m.GripperCommand, "safety", 100, "gripper", "grip force command")
 GRIPPER_STATE = _T("gripper/state", m.GripperState, "state", 100, "gripper", "gripper mode and force")
 GRIPPER_RELEASE = _T("gripper/release", m.ReleaseEvent, "safety", 0, "gripper", "release event")

@@ -40,6 +40,7 @@ from bus_schema.messages.motion import (
 )
 from bus_schema.messages.gripper import GripperCommand, GripperMode, GripperState, ReleaseEvent
 from bus_schema.messages.supervisor import (
+    PHASES_OUTSIDE_EPISODE,
     SUPERVISOR_STATE_FRESH_S,
     EpisodeOutcome,
     EpisodeSummary,
@@ -53,6 +54,7 @@ from bus_schema.types import MAX_JOINTS, AngleRad, DistanceM, ForceN, PositionM
 
 __all__ = [
     "MAX_JOINTS",
+    "PHASES_OUTSIDE_EPISODE",
     "SKELETON_JOINTS",
     "SUPERVISOR_STATE_FRESH_S",
     "AngleRad",

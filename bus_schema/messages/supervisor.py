@@ -26,6 +26,11 @@ SupervisorPhase = Literal[
 ]
 
 
+#: The phases in which no episode runs: before the first, between two, after the last, or
+#: latched after a protective stop. Readers that act only during an episode test against these
+#: (the planner rests; the bridge stops the arm when the supervisor dies outside them).
+PHASES_OUTSIDE_EPISODE: frozenset[str] = frozenset({"idle", "done", "failed", "protective_stop"})
+
 #: A reader that acts on the supervisor's phase (the tracker, the planner) takes a
 #: `SupervisorState` received longer ago than this as no word at all, s: the supervisor sends
 #: one at least every 50 ms, so an older one means it is silent or gone.

@@ -23,6 +23,7 @@ from bus_schema import topics
 from services.bridge.backend import Backend, PublishFn
 from services.bridge.config import BridgeConfig
 from services.bridge.core import CommandGate, StopBrake
+from services.bridge.supervisor_loss import SupervisorLoss
 from services.runtime import RateLimitedLog, kv
 from services.runtime.pubsub import Received
 from services.runtime.repeat import RepeatGate, settled_key
@@ -87,6 +88,11 @@ class ArmLoop:
         #: The newest `motion/stop` drained so far (a newer one queued makes a tick urgent).
         self.newest_stop: Received[Any] | None = None
         self.episode_id: int | None = None
+        #: The supervisor's liveliness against its episodes (`services.bridge.supervisor_loss`).
+        self.supervisor_loss = SupervisorLoss()
+        #: The reason of a protective stop this loop decided itself, for the caller to send on
+        #: ``motion/stop`` (`take_own_stop`).
+        self._own_stop: str | None = None
         self._reject_log = RateLimitedLog(log, REJECT_LOG_PERIOD_S)
         self._last_s = start_s
         self._was_holding = True
@@ -99,8 +105,11 @@ class ArmLoop:
         measured = backend.read()
         current = measured.position_rad
         self._take_stops_and_goals(inbox.stops.drain(), inbox.goals, measured.velocity_rad_s)
+        tokens = self.supervisor_loss.take_tokens()  # before the states: see `SupervisorLoss`
         for rx in inbox.supervisor.drain():
             self._take_supervisor(rx.msg.episode_id)
+            self.supervisor_loss.state(rx.msg.phase, rx.msg.episode_id)
+        self._check_supervisor(tokens, measured.velocity_rad_s)
         for rx in inbox.commands.drain():
             self._take_command(rx, current)
         grips = inbox.grips.drain()
@@ -169,6 +178,22 @@ class ArmLoop:
             log.info("new episode", extra=kv(episode_id=episode_id, backend=self.backend.name))
             self.backend.new_episode()
         self.episode_id = episode_id
+
+    def _check_supervisor(self, tokens: list[bool], velocity_rad_s: np.ndarray) -> None:
+        """Brake, protectively, when the supervisor's token went (one of `tokens`) during one of
+        its episodes."""
+        reason = self.supervisor_loss.due(tokens)
+        if reason is None:
+            return
+        log.warning("supervisor lost: braking", extra=kv(reason=reason, already_braking=self.brake.active))
+        self.brake.engage(reason, velocity_rad_s, protective=True, source="bridge")
+        self._own_stop = reason
+
+    def take_own_stop(self) -> str | None:
+        """The reason of the protective stop this loop decided since the last call (to send on
+        ``motion/stop``), or None."""
+        reason, self._own_stop = self._own_stop, None
+        return reason
 
     def _take_command(self, rx: Received[Any], current_rad: np.ndarray) -> None:
         """A joint command, unless the brake ignores its goal; a rejected one is logged

@@ -29,6 +29,7 @@ from services.bridge.config import BridgeConfig
 from services.bridge.errors import BridgeConfigError
 from services.runtime import Profile, ServiceNode, kv
 from services.runtime.clock import clock_source
+from services.runtime.liveliness import LivelinessWatcher
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +63,15 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
         inbox = Inbox(stops=stops, goals=node.subscribe(topics.MOTION_GOAL, queue_size=64, wake=False),
                       supervisor=node.subscribe(topics.SUPERVISOR_STATE, queue_size=16, wake=False),
                       commands=commands, grips=grips)
+        stop_pub = node.publisher(topics.MOTION_STOP)
+        arm = ArmLoop(backend, config, start_s=clock.now_s())
+
+        def on_liveliness(name: str, alive: bool) -> None:
+            if name == "supervisor":  # a Zenoh thread: record, and wake the loop
+                arm.supervisor_loss.token(alive)
+                node.wake_up()
+
+        watcher = LivelinessWatcher(node.session, profile.prefix, on_change=on_liveliness)
         node.ready()
         extra_pubs: dict[str, Any] = {}
 
@@ -74,9 +84,10 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
         log.info("bridge running", extra=kv(backend=backend.name, rate_hz=config.rate_hz,
                                             command_timeout_s=config.command_timeout_s,
                                             stop_wakes_loop=config.stop_wakes_loop))
-        arm = ArmLoop(backend, config, start_s=clock.now_s())
 
         def stop_pending() -> bool:
+            if arm.supervisor_loss.pending():
+                return True
             latest = stops.latest()
             return latest is not None and latest is not arm.newest_stop
 
@@ -84,12 +95,17 @@ def run_bridge(profile: Profile, config: BridgeConfig, backend: Backend | None =
         try:
             for _tick in loop:
                 state_pub.put(**arm.tick(clock.now_s(), inbox))
+                own_stop = arm.take_own_stop()
+                if own_stop is not None:
+                    stop_pub.put(reason=f"protective stop: {own_stop}", protective=True)
                 arm.publish_extras(publish_extra, clock.now_s())
         finally:
+            watcher.undeclare()
             backend.close()
             log.info("bridge stopped", extra=kv(accepted=arm.gate.accepted, rejected=arm.gate.rejected,
                                                 ignored_after_stop=arm.brake.ignored_commands,
                                                 ticks=loop.stats.ticks, stop_ticks=loop.stats.urgent_ticks,
                                                 unchanged_truth_not_sent=arm.truth_gate.skipped,
+                                                supervisor_lost_stops=arm.supervisor_loss.stops,
                                                 overruns=loop.stats.overruns))
     return 0

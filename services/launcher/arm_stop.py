@@ -8,7 +8,8 @@ threads (the stop request's waiter, then the job's loop, which sends it), each a
 at the GIL; beside a heavy load (the Rerun viewer replaying a run with software rendering) that
 chain once took 133 ms. The monitor now sends the stop itself, first, through this object (the
 handover job and the demo alike). The handover job still sends its own stop as it ends, through
-the same publisher (`publisher`): one numbering of the launcher's stops, each recorded.
+the node's same publisher (`ServiceNode.publisher` makes one per topic): one numbering of the
+launcher's stops, each recorded.
 """
 
 from __future__ import annotations
@@ -40,12 +41,6 @@ class ArmStop:
         fail with the closing session; `send` never raises)."""
         with self._lock:
             self._publisher = None
-
-    @property
-    def publisher(self) -> Any:
-        """The attached `motion/stop` publisher (None when no job's node is open)."""
-        with self._lock:
-            return self._publisher
 
     def send(self, reason: str) -> bool:
         """Send ``protective stop: <reason>`` unless a stop was sent already or no node is open;

@@ -18,7 +18,6 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
 
 from bus_schema import topics
 from services.launcher.episode_watch import EpisodeReport, EpisodeWatch
@@ -82,7 +81,7 @@ class _EpisodeFeed:
     reads to the episode watch and the supervisor's silence."""
 
     def __init__(self, node: ServiceNode, say: Callable[[str], None],
-                 silence: SupervisorSilence | SimClockSilence, stop_pub: Any = None) -> None:
+                 silence: SupervisorSilence | SimClockSilence) -> None:
         self.say = say
         self.silence = silence
         self.watch = EpisodeWatch()
@@ -92,10 +91,9 @@ class _EpisodeFeed:
         self.looked_s = time.monotonic()
         self.summaries = node.subscribe(topics.EPISODE, queue_size=64)
         self.truth = node.subscribe(topics.SIM_TRUTH, queue_size=1024, wake=False)
-        # One `motion/stop` publisher per node (the launcher's monitor sends through it too): a
-        # second one of the same source would number its messages from 0 again, and the
-        # recorder, which logs each (source, seq) once, would drop the later stop.
-        self.stop_pub = stop_pub if stop_pub is not None else node.publisher(topics.MOTION_STOP)
+        # The node's one `motion/stop` publisher (`ServiceNode.publisher`): the launcher's
+        # monitor sends through it too, so both stops share one numbering and are recorded.
+        self.stop_pub = node.publisher(topics.MOTION_STOP)
         #: When the last progress line or summary came (monotonic s).
         self.last_progress_s = time.monotonic()
 
@@ -149,7 +147,7 @@ class _EpisodeFeed:
 def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[], str | None],
                      say: Callable[[str], None], episode_timeout_s: float = 90.0,
                      supervisor_pid: Callable[[], int | None] | None = None,
-                     delivery_pids: tuple[int, ...] = (), stop_pub: Any = None) -> JobResult:
+                     delivery_pids: tuple[int, ...] = ()) -> JobResult:
     """Follow `episodes` episodes (0: until aborted); print progress with `say`.
 
     `supervisor_pid` (one host): the supervisor's process id, so that a supervisor starved of
@@ -157,11 +155,10 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
     `services.runtime.sched.MAX_EXCUSED_S`; a stopped or hung one still is at
     `SUPERVISOR_SILENT_S`; nor while the processes its states pass through (`delivery_pids`:
     the router, this one) are starved. On the simulation clock the silence is counted in the
-    stack's time (`SimClockSilence`). `stop_pub`: the node's `motion/stop` publisher, when the
-    launcher made one already (`services.launcher.arm_stop`)."""
+    stack's time (`SimClockSilence`)."""
     silence: SupervisorSilence | SimClockSilence = (
         SimClockSilence() if node.clock.is_sim else SupervisorSilence(supervisor_pid, delivery_pids))
-    feed = _EpisodeFeed(node, say, silence, stop_pub)
+    feed = _EpisodeFeed(node, say, silence)
     wait_s = seconds_to_wall_grid(WATCH_PERIOD_S)
     while True:
         wake_s = time.monotonic() + wait_s

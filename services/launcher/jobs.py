@@ -61,18 +61,17 @@ def robot_line() -> str:
 
 def handover_job(episodes: int, episode_timeout_s: float, abort_reason: Callable[[], str | None],
                  say: Callable[[str], None], supervisor_pid: Callable[[], int | None] | None,
-                 delivery_pids: tuple[int, ...],
-                 arm_stop: ArmStop | None = None) -> Callable[[ServiceNode], JobOutcome]:
-    """The handover job, to run with `run_on_bus` (arguments: `handover_job.run_handover_job`'s;
-    `arm_stop`: the job sends its stop through the same publisher as the monitor's)."""
+                 delivery_pids: tuple[int, ...]) -> Callable[[ServiceNode], JobOutcome]:
+    """The handover job, to run with `run_on_bus` (arguments: `handover_job.run_handover_job`'s).
+    Its stop goes through the node's one ``motion/stop`` publisher, which the monitor's
+    `ArmStop` was given too (`ServiceNode.publisher`: one per topic)."""
     from services.launcher.handover_job import run_handover_job
 
     def run(node: ServiceNode) -> JobOutcome:
         say(robot_line())
         say(handover_job_line(episodes))
         return handover_outcome(run_handover_job(node, episodes, abort_reason, say, episode_timeout_s,
-                                                 supervisor_pid, delivery_pids,
-                                                 arm_stop.publisher if arm_stop is not None else None))
+                                                 supervisor_pid, delivery_pids))
 
     return run
 

@@ -46,7 +46,7 @@ LAUNCHER = "launcher"
 #: heartbeat and liveliness token. The tracker renders the simulated Kinect in its process
 #: (``sensor = "sim"``), so it publishes the camera's streams too.
 PUBLISHES: dict[str, tuple[T.Topic, ...]] = {
-    "bridge": (T.JOINT_STATE, T.WRIST_WRENCH, T.OBJECT_MOTION, T.SIM_TRUTH, T.CLOCK),
+    "bridge": (T.JOINT_STATE, T.WRIST_WRENCH, T.OBJECT_MOTION, T.SIM_TRUTH, T.CLOCK, T.MOTION_STOP),
     "tracker": (T.HUMAN, T.OBJECT, T.SKELETON, T.DEPTH, T.KINECT_TRUTH),
     "kinect": (T.SKELETON, T.DEPTH, T.KINECT_TRUTH),
     "motion": (T.JOINT_COMMAND, T.MOTION_STATUS),

@@ -327,7 +327,7 @@ class Launcher:
                                     "([services.supervisor]); use --job demo or check without one")
             on_bus = handover_job(self._episodes(), self.options.episode_timeout_s, self._abort_reason, say,
                                   None if self.profile.allow_non_loopback else self._supervisor_pid,
-                                  self._delivery_pids(), self.arm_stop)
+                                  self._delivery_pids())
         else:
             on_bus = demo_job(self._abort_reason, say)
         self.episode_running = True  # no safety service is restarted from here on

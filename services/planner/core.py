@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from bus_schema.messages import SUPERVISOR_STATE_FRESH_S, HumanState
+from bus_schema.messages import PHASES_OUTSIDE_EPISODE, SUPERVISOR_STATE_FRESH_S, HumanState
 from services.planner.anthropometrics import BodyDimensions
 from services.planner.config import PlannerConfig
 from services.planner.errors import PlannerError
@@ -112,7 +112,7 @@ def plan_for_receiver(
 
 #: Supervisor phases outside an episode: nobody reads a plan then (the supervisor reads the
 #: transfer target from `plan` to the end of `reach`, after a `pick` of a second and more).
-REST_PHASES = ("idle", "done", "failed", "protective_stop")
+REST_PHASES = PHASES_OUTSIDE_EPISODE
 # A supervisor state older than SUPERVISOR_STATE_FRESH_S no longer lets the planner rest: a
 # planner without a supervisor (alone, a study, a lost one) keeps its full rate.
 

@@ -34,8 +34,8 @@ from services.runtime.logs import RateLimitedLog, kv
 from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile
 from services.runtime.signals import SignalRelay
-from services.runtime.zenoh_config import zenoh_config
 from services.runtime.pubsub import Received, SubscriptionStats, TypedPublisher, TypedSubscription
+from services.runtime.session import open_session
 from services.runtime.stamps import SENDER_CLOCK, SenderClock
 from services.runtime.starvation import LATE_WAKE_REPORT_S, WakeSampler, late_wake_report
 
@@ -65,30 +65,6 @@ def heartbeat_period_s(profile: Profile) -> float:
     return MULTIHOST_HEARTBEAT_PERIOD_S if profile.allow_non_loopback else HEARTBEAT_PERIOD_S
 
 log = logging.getLogger(__name__)
-
-
-def open_session(profile: Profile, mode: str = "client", timeout_s: float = 10.0,
-                 user: str | None = None) -> zenoh.Session:
-    """Open a Zenoh session with the profile's loopback-only config, retrying until the
-    router answers or `timeout_s` passes. `user` names the credentials a client presents
-    when the profile has ``[bus.auth]`` (services pass their own name).
-
-    Raises:
-        BusError: the router at the profile's endpoint did not answer in time.
-    """
-    deadline = time.monotonic() + timeout_s
-    last_error: Exception | None = None
-    while True:
-        try:
-            return zenoh.open(zenoh_config(profile, mode, user))  # type: ignore[arg-type]
-        except zenoh.ZError as exc:
-            last_error = exc
-        if time.monotonic() >= deadline:
-            raise BusError(
-                f"could not reach the Zenoh router at {profile.endpoint} within {timeout_s:.1f} s "
-                f"(is handover-up or a router running there?): {last_error}"
-            )
-        time.sleep(0.05)
 
 
 class ServiceNode:
@@ -150,6 +126,8 @@ class ServiceNode:
         self._new_data = False
         self._subscriptions: list[TypedSubscription[Any]] = []
         self._publishers: list[TypedPublisher[Any]] = []
+        #: The publisher of each topic (by suffix) and whether it has its own stamps (`publisher`).
+        self._publishers_by_key: dict[str, tuple[TypedPublisher[Any], bool]] = {}
         self._session: zenoh.Session | None = None
         self._token: Any = None
         self._signals = SignalRelay(self._on_signal, name=f"{name} signals")
@@ -205,6 +183,7 @@ class ServiceNode:
             sub.undeclare()
         for pub in self._publishers:
             pub.undeclare()
+        self._publishers_by_key.clear()
         if self._token is not None:
             try:
                 self._token.undeclare()
@@ -254,9 +233,22 @@ class ServiceNode:
 
     # ------------------------------------------------------------------ pub/sub
     def publisher(self, topic: Topic, own_stamps: bool = False) -> TypedPublisher[Any]:
-        """A publisher of `topic`. `own_stamps`: its stamps come from a clock of its own that
-        follows the stack's (for a publisher whose sending does not follow the stack's clock,
-        as heartbeats on the simulation clock: its messages must not shift the others' stamps)."""
+        """The node's publisher of `topic`: one per topic, made at the first call, so that every
+        part of a service sends through one numbering (two publishers of one source would both
+        count from 0, and readers that take each (source, seq) once, the recorder, would drop
+        one's messages). `own_stamps`: its stamps come from a clock of its own that follows the
+        stack's (for a publisher whose sending does not follow the stack's clock, as heartbeats
+        on the simulation clock: its messages must not shift the others' stamps).
+
+        Raises:
+            BusError: `topic`'s publisher was made already with the other `own_stamps`.
+        """
+        made = self._publishers_by_key.get(topic.suffix)
+        if made is not None:
+            if made[1] != own_stamps:
+                raise BusError(f"{self.name}: {topic.suffix} already has a publisher with own_stamps="
+                               f"{made[1]}; one topic, one publisher")
+            return made[0]
         stamps = None
         if own_stamps:
             stamps = SenderClock()
@@ -264,6 +256,7 @@ class ServiceNode:
                 stamps.follow(self.clock.now_ns)
         pub: TypedPublisher[Any] = TypedPublisher(self, topic, stamps)
         self._publishers.append(pub)
+        self._publishers_by_key[topic.suffix] = (pub, own_stamps)
         return pub
 
     def subscribe(self, topic: Topic, queue_size: int = 256, wake: bool = True,

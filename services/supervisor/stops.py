@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from bus_schema.messages import JointState, MotionStatus
+from bus_schema.messages import PHASES_OUTSIDE_EPISODE, JointState, MotionStatus
 from services.supervisor.config import SupervisorConfig
 from services.supervisor.episode import Episode
 
@@ -55,7 +55,7 @@ def protective_stop_applies(phase: str, episode: Episode | None, critical: bool)
     after a protective stop, never for a report-only service."""
     if not critical:
         return False
-    if phase in ("idle", "done", "failed", "protective_stop") and (episode is None or episode.summary_sent):
+    if phase in PHASES_OUTSIDE_EPISODE and (episode is None or episode.summary_sent):
         if phase == "idle" and episode is None:
             return False
         if phase == "protective_stop":

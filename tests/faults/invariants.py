@@ -222,14 +222,14 @@ def detection_time(rec: RunRecord, inj: Injection) -> float | None:
     """When the stack noticed the fault (test monotonic s): the first supervisor state sent
     after the injection whose reason names the service, the supervisor's own ``service fault
     service=<name>`` log line (report-only services change no state), or the launcher's
-    notice: the protective stop it sent naming the service (by its stamp), or its
-    ``FAILURE:`` line (by when this test read it: later than the launcher wrote it when this
-    process waits for a CPU)."""
+    notice: the protective stop it sent naming the service (by its stamp; the bridge's stop on
+    the supervisor's lost token counts the same), or its ``FAILURE:`` line (by when this test
+    read it: later than the launcher wrote it when this process waits for a CPU)."""
     service = inj.plan.service
     candidates = []
     for _stamp, msg in by_stamp(rec.stops):
         t = sent_at(inj, msg)
-        if t >= inj.at_s and msg.protective and msg.source == "launcher" and service in msg.reason:
+        if t >= inj.at_s and msg.protective and msg.source in ("launcher", "bridge") and service in msg.reason:
             candidates.append(t)
             break
     for _stamp, msg in by_stamp(rec.states):

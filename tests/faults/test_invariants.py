@@ -145,7 +145,11 @@ def test_a_killed_supervisor_is_detected_when_the_launcher_acts_not_when_the_tes
     rec.lines = [(1.2, "[launcher] FAILURE: supervisor was killed by SIGKILL")]
     v = judge(rec)
     assert abs(v.detection_s["kill supervisor @ transfer"] - 0.03) < 1e-9
-    for stop in (MotionStop(**{**at(0.93), "source": "bridge"}, protective=True, reason="protective stop: supervisor"),
+    for stop in (MotionStop(**{**at(0.93), "source": "gripper"}, protective=True, reason="protective stop: supervisor"),
                  MotionStop(**{**at(0.93), "source": "launcher"}, protective=True, reason="protective stop: gripper")):
         rec.stops = [(1.2, stop)]
         assert abs(judge(rec).detection_s["kill supervisor @ transfer"] - 0.3) < 1e-9  # the line, read late
+    # The bridge's own stop on the supervisor's lost token counts, by its stamp, as the launcher's.
+    rec.stops = [(1.2, MotionStop(**{**at(0.92), "source": "bridge"}, protective=True,
+                                  reason="protective stop: supervisor lost: its token went during transfer"))]
+    assert abs(judge(rec).detection_s["kill supervisor @ transfer"] - 0.02) < 1e-9

@@ -97,7 +97,8 @@ def test_shipped_profiles_load_and_sim_stays_loopback_without_auth():
     assert multi.allow_non_loopback and multi.auth is not None
     owners = {name for name, perms in multi.access_control.users.items()
               if any(k.endswith("/motion/stop") for k in perms.publish)}
-    assert owners == {"supervisor", "launcher"}  # the launcher stops the arm when the supervisor falls silent
+    # The launcher stops the arm when the supervisor falls silent, the bridge when it dies.
+    assert owners == {"supervisor", "launcher", "bridge"}
     for key, owner in (("gripper/command", "gripper"), ("robot/joint_command", "motion")):
         assert {n for n, p in multi.access_control.users.items()
                 if any(k == "{prefix}/" + key for k in p.publish)} == {owner}

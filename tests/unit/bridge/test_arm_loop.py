@@ -127,13 +127,13 @@ def test_a_stop_brakes_and_ignores_the_stopped_goals_commands_until_a_newer_goal
 
 def test_a_new_episode_resets_the_scene_and_ends_a_protective_stop_latch():
     backend, inbox, arm = _setup()
-    inbox.supervisor.put(10.0, episode_id=1)
+    inbox.supervisor.put(10.0, episode_id=1, phase="locate")
     arm.tick(10.0, inbox)
     assert backend.episodes == 0  # the first episode seen is no change
     _stop(inbox, 10.005, protective=True)
     arm.tick(10.01, inbox)
     assert arm.brake.protective
-    inbox.supervisor.put(10.015, episode_id=2)
+    inbox.supervisor.put(10.015, episode_id=2, phase="locate")
     arm.tick(10.02, inbox)
     assert backend.episodes == 1 and not arm.brake.protective and arm.episode_id == 2
 

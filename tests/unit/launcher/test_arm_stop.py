@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from bus_schema import topics
 from services.launcher.arm_stop import ArmStop
 from services.launcher.core import LaunchOptions
 from services.launcher.handover_job import _EpisodeFeed
@@ -19,6 +20,7 @@ from services.launcher.supervisor_silence import SupervisorSilence
 from services.launcher.node import Launcher
 from services.launcher.processes import Child
 from services.runtime.profile import load_profile_file
+from services.runtime.testing import wait_until
 
 
 class FakePublisher:
@@ -95,26 +97,20 @@ def test_the_monitor_stops_the_arm_when_a_safety_service_dies_in_the_job(tmp_pat
         launcher.wakeup.close()
 
 
-class FeedNode:
-    """Just enough of a node for the handover job's feed: no second stop publisher allowed."""
-
-    def subscribe(self, topic, queue_size=256, wake=True):
-        return None
-
-    def publisher(self, topic):
-        raise AssertionError(f"a second {topic.suffix} publisher of the launcher's node")
-
-
-def test_the_jobs_stop_goes_through_the_monitors_publisher():
-    """Two publishers of one source number their messages from 0 each, and the recorder logs a
-    stop once per (source, seq): the job's stop after the monitor's would be lost from the
-    recording. The job sends through the publisher `ArmStop` was given."""
-    publisher = FakePublisher()
+def test_the_jobs_stop_and_the_monitors_share_one_numbering_on_a_real_bus(make_node):
+    """Two publishers of one source would number their messages from 0 each, and the recorder
+    logs a stop once per (source, seq): the job's stop after the monitor's would be lost from
+    the recording. The monitor's `ArmStop` and the job's feed both ask the launcher's node for a
+    ``motion/stop`` publisher, and get its one: the two stops arrive numbered 0 and 1."""
+    launcher, reader = make_node("launcher"), make_node("reader")
+    stops = reader.subscribe(topics.MOTION_STOP, queue_size=16)
+    reader.ready()
     arm_stop = ArmStop()
-    arm_stop.attach(publisher)
-    feed = _EpisodeFeed(FeedNode(), say=lambda line: None, silence=SupervisorSilence(), stop_pub=arm_stop.publisher)
+    arm_stop.attach(launcher.publisher(topics.MOTION_STOP))
+    feed = _EpisodeFeed(launcher, say=lambda line: None, silence=SupervisorSilence())
     assert arm_stop.send("supervisor was killed by SIGKILL")
-    result = feed.stopped("supervisor was killed by SIGKILL")
-    assert not result.ok
-    assert [fields["reason"] for fields, _thread in publisher.puts] == [
-        "protective stop: supervisor was killed by SIGKILL"] * 2
+    assert not feed.stopped("supervisor was killed by SIGKILL").ok
+    received: list = []
+    assert wait_until(lambda: received.extend(stops.drain()) or len(received) >= 2, 5.0)
+    assert [(rx.msg.source, rx.msg.seq) for rx in received] == [("launcher", 0), ("launcher", 1)]
+    assert [rx.msg.reason for rx in received] == ["protective stop: supervisor was killed by SIGKILL"] * 2
