@@ -1,20 +1,17 @@
 """The Rerun viewer as a load beside the stack (issue 16's load test "beside the Rerun viewer").
 
 The real viewer of the project's venv (the native binary of the ``rerun-sdk`` wheel), headless:
-a private Xvfb display (its number chosen by Xvfb, no TCP listener) and Mesa's software Vulkan
-(llvmpipe), as `tools/screenshot_recording.sh` runs it. It replays a handover recording over
-and over (`services.recorder.blueprint.blueprint(..., replay_in_loop=True)`): the load of a
-user watching a replay while a run goes on. On two cores with software rendering it keeps about
-1.6 cores busy on its own (measured when the test was written), more than the two busy loops
-of the hog tests; `ViewerLoad.cores` says how much it took in each run.
+a private Xvfb display and Mesa's software Vulkan, set up by `services.recorder.headless` as for
+``handover-recorder screenshot`` (loopback only, analytics off in private folders, stopped by
+process id, and by the kernel when this process dies). It replays a handover recording over and
+over (`services.recorder.blueprint.blueprint(..., replay_in_loop=True)`): the load of a user
+watching a replay while a run goes on. On two cores with software rendering it keeps about 1.6
+cores busy on its own (measured when the test was written), more than the two busy loops of the
+hog tests; `ViewerLoad.cores` says how much it took in each run.
 
-Kept to the machine: the viewer listens on 127.0.0.1 only, its analytics are disabled in a
-private configuration folder (its first start sends nothing; `rerun analytics disable` there
-makes sure), and the viewer and Xvfb are stopped by their process ids, even when the test
-fails (and by the kernel when this process dies: ``PR_SET_PDEATHSIG``). Its memory is not
-bounded: replaying with software rendering it grows about 20 MB a second whatever
-``--memory-limit`` says (the limit is kept for the data it holds); a twenty-episode run ends
-near 3.5 GB, which `ViewerLoad.rss_mb` reports.
+Its memory is not bounded: replaying with software rendering it grows about 20 MB a second
+whatever ``--memory-limit`` says (the limit is kept for the data it holds); a twenty-episode
+run ends near 3.5 GB, which `ViewerLoad.rss_mb` reports.
 
 Needs (Debian): ``apt-get install -y xvfb mesa-vulkan-drivers``; without them the tests that
 use it are skipped with that line.
@@ -22,13 +19,9 @@ use it are skipped with that line.
 
 from __future__ import annotations
 
-import ctypes
-import glob
-import os
-import select
 import shutil
-import signal
 import subprocess
+import sys
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager, suppress
@@ -37,29 +30,28 @@ from pathlib import Path
 import psutil
 import pytest
 
+from services.recorder.headless import die_with_parent, headless_display, missing, stop, viewer_binary, viewer_env
+
+__all__ = ["DRAWING_CORES", "MEMORY_LIMIT", "ViewerLoad", "handover_recording", "headless_viewer", "missing"]
+
 #: The viewer's bound on the data it holds (Rerun drops the oldest past it; its own memory
 #: grows beyond it while it replays: see the module docstring).
 MEMORY_LIMIT = "1GB"
 #: A viewer that is drawing takes at least this much CPU (cores) in its first seconds.
 DRAWING_CORES = 0.3
-_INSTALL = "apt-get install -y xvfb mesa-vulkan-drivers"
-_PR_SET_PDEATHSIG = 1
 
 
-def missing() -> str | None:
-    """Why the headless viewer cannot run on this machine (one line), or None."""
-    if shutil.which("Xvfb") is None:
-        return f"Xvfb not found (needs: {_INSTALL})"
-    if not glob.glob("/usr/share/vulkan/icd.d/lvp_icd*.json"):
-        return f"no software Vulkan driver (needs: {_INSTALL})"
-    return None
-
-
-def viewer_binary() -> Path:
-    """The native viewer of the ``rerun-sdk`` wheel (the venv's ``rerun`` script only starts it)."""
-    import rerun_cli
-
-    return Path(rerun_cli.__file__).parent / "rerun"
+def handover_recording(folder: Path, run_id: str) -> Path:
+    """A recording of one default handover (`handover-up`, nothing beside it) in `folder`, for
+    the viewer; skips the test, saying why, when the headless viewer cannot run here."""
+    reason = missing()
+    if reason is not None:
+        pytest.skip(f"the headless Rerun viewer cannot run here: {reason}")
+    done = subprocess.run([sys.executable, "-m", "services.launcher", "--port", "auto", "--episodes", "1",
+                           "--recording-dir", str(folder), "--run-id", run_id],
+                          stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=240)
+    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
+    return folder / f"handover-{run_id}.rrd"
 
 
 class ViewerLoad:
@@ -93,74 +85,6 @@ class ViewerLoad:
         return self.process.memory_info().rss / 1e6
 
 
-def _die_with_parent() -> None:  # runs in the child between fork and exec
-    ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
-
-
-def _read_line(fd: int, timeout_s: float) -> bytes:
-    """Bytes from `fd` up to a newline (b"" or a partial line when it did not come in time)."""
-    text, deadline = b"", time.monotonic() + timeout_s
-    while not text.endswith(b"\n"):
-        ready, _, _ = select.select([fd], [], [], max(deadline - time.monotonic(), 0.0))
-        chunk = os.read(fd, 64) if ready else b""
-        if not chunk:
-            break
-        text += chunk
-    return text
-
-
-def _start_xvfb(log_path: Path, timeout_s: float) -> tuple[subprocess.Popen, str]:
-    """A private X display: (Xvfb's process, ``:N``). Xvfb is stopped again when it does not
-    say its display, whatever ends the wait."""
-    read_fd, write_fd = os.pipe()
-    xvfb = None
-    try:
-        with log_path.open("wb") as log:
-            xvfb = subprocess.Popen(["Xvfb", "-displayfd", str(write_fd), "-nolisten", "tcp",
-                                     "-screen", "0", "1280x800x24"], pass_fds=(write_fd,),
-                                    stdin=subprocess.DEVNULL, stdout=log, stderr=log, preexec_fn=_die_with_parent)
-        os.close(write_fd)
-        write_fd = -1
-        # Up to the newline: Xvfb may write the number and the newline apart, and dies on a
-        # pipe closed in between ("Cannot write display number to fd").
-        text = _read_line(read_fd, timeout_s)
-        if not (text.endswith(b"\n") and text.strip().isdigit()):
-            raise RuntimeError(f"Xvfb did not say its display in {timeout_s:.0f} s: "
-                               f"{log_path.read_text(errors='replace')[-500:]}")
-    except BaseException:
-        _stop(xvfb)
-        raise
-    finally:
-        os.close(read_fd)
-        if write_fd >= 0:
-            os.close(write_fd)
-    return xvfb, f":{text.decode().strip()}"
-
-
-def _viewer_env(workdir: Path, display: str) -> dict[str, str]:
-    """The viewer's environment: the display, software Vulkan, private configuration folders."""
-    env = dict(os.environ)
-    for name in ("XDG_CONFIG_HOME", "XDG_DATA_HOME", "XDG_CACHE_HOME", "XDG_RUNTIME_DIR"):
-        folder = workdir / name.lower()
-        folder.mkdir(mode=0o700, exist_ok=True)
-        env[name] = str(folder)
-    env.update(DISPLAY=display, WGPU_BACKEND="vulkan", RUST_LOG="error",
-               VK_ICD_FILENAMES=":".join(glob.glob("/usr/share/vulkan/icd.d/lvp_icd*.json")))
-    return env
-
-
-def _stop(proc: subprocess.Popen | None) -> None:
-    """Stop a process this module started, by its pid (SIGTERM, then SIGKILL)."""
-    if proc is None or proc.poll() is not None:
-        return
-    proc.terminate()
-    try:
-        proc.wait(10.0)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        proc.wait(10.0)
-
-
 @contextmanager
 def headless_viewer(recording: Path, workdir: Path, robot_name: str = "baxter",
                     start_timeout_s: float = 60.0) -> Iterator[ViewerLoad]:
@@ -168,37 +92,31 @@ def headless_viewer(recording: Path, workdir: Path, robot_name: str = "baxter",
 
     Skips the test when Xvfb or software Vulkan is missing (`missing`). Returns once the viewer
     draws (it took `DRAWING_CORES` over a second); raises RuntimeError, with the end of its
-    output, when it does not within `start_timeout_s`."""
+    output, when it does not within `start_timeout_s` (`HeadlessViewerError` when the display
+    does not start)."""
     from services.recorder.blueprint import blueprint
 
     reason = missing()
     if reason is not None:
         pytest.skip(f"the headless Rerun viewer cannot run here: {reason}")
-    workdir.mkdir(parents=True, exist_ok=True)
-    xvfb, display = _start_xvfb(workdir / "xvfb.log", start_timeout_s)
     viewer = None
-    try:
-        env = _viewer_env(workdir, display)
-        binary = viewer_binary()
-        subprocess.run([str(binary), "analytics", "disable"], env=env, check=True, timeout=30,
-                       stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        layout = workdir / "replay.rbl"
-        blueprint(robot_name, replay_in_loop=True).save("handover", str(layout))
-        log_path = workdir / "viewer.log"
-        with log_path.open("wb") as log:
-            viewer = subprocess.Popen([str(binary), "--bind", "127.0.0.1", "--port", "auto",
-                                       "--memory-limit", MEMORY_LIMIT, "--window-size", "1280x800",
-                                       str(recording), str(layout)],
-                                      env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=log,
-                                      preexec_fn=_die_with_parent)
-        load = ViewerLoad(psutil.Process(viewer.pid))
-        _wait_drawing(load, viewer, log_path, start_timeout_s)
-        yield load
-    finally:
+    with headless_display(workdir, "1280x800x24", start_timeout_s) as display:
         try:
-            _stop(viewer)
+            env = viewer_env(workdir, display)
+            layout = workdir / "replay.rbl"
+            blueprint(robot_name, replay_in_loop=True).save("handover", str(layout))
+            log_path = workdir / "viewer.log"
+            with log_path.open("wb") as log:
+                viewer = subprocess.Popen([str(viewer_binary()), "--bind", "127.0.0.1", "--port", "auto",
+                                           "--memory-limit", MEMORY_LIMIT, "--window-size", "1280x800",
+                                           str(recording), str(layout)],
+                                          env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=log,
+                                          preexec_fn=die_with_parent)
+            load = ViewerLoad(psutil.Process(viewer.pid))
+            _wait_drawing(load, viewer, log_path, start_timeout_s)
+            yield load
         finally:
-            _stop(xvfb)
+            stop(viewer)
             with suppress(OSError):
                 shutil.rmtree(workdir / "xdg_cache_home")
 

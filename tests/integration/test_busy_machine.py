@@ -26,7 +26,7 @@ import pytest
 
 from tests.faults.harness import run_with_faults
 from tests.faults.invariants import FaultPlan, judge
-from tests.integration.headless_viewer import ViewerLoad, headless_viewer, missing
+from tests.integration.headless_viewer import ViewerLoad, handover_recording, headless_viewer
 
 pytestmark = [pytest.mark.integration]
 
@@ -136,15 +136,7 @@ def test_every_critical_service_is_caught_in_time_beside_two_hogs(service, kind)
 def replay_recording(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A recording of one default handover (`handover-up`, nothing beside it), for the viewer
     to replay."""
-    reason = missing()
-    if reason is not None:
-        pytest.skip(f"the headless Rerun viewer cannot run here: {reason}")
-    folder = tmp_path_factory.mktemp("replay")
-    done = subprocess.run([sys.executable, "-m", "services.launcher", "--port", "auto", "--episodes", "1",
-                           "--recording-dir", str(folder), "--run-id", "replay"],
-                          stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=240)
-    assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
-    return folder / "handover-replay.rrd"
+    return handover_recording(tmp_path_factory.mktemp("replay"), "replay")
 
 
 @pytest.mark.long

@@ -101,14 +101,24 @@ def test_a_valid_command_moves_the_arm_and_the_state_says_not_holding():
     assert arm.gate.accepted == 10
 
 
-def test_a_stop_brakes_and_ignores_the_stopped_goals_commands_until_a_newer_goal():
+def moving_arm(phase: str | None = None):
+    """An arm on its way to a goal 1 rad off home after 20 ticks (with supervisor states of
+    `phase`, episode 1, when given): (backend, inbox, arm loop, target, time of the last tick)."""
     backend, inbox, arm = _setup()
     target = HOME + np.array([1.0, 0, 0, 0, 0, 0, 0])
     t = 10.0
     for k in range(20):
         t += PERIOD_S
         _command(inbox, t, target, seq=k)
+        if phase is not None:
+            inbox.supervisor.put(t, episode_id=1, phase=phase)
         arm.tick(t, inbox)
+    assert backend.read().velocity_rad_s[0] > 0.1
+    return backend, inbox, arm, target, t
+
+
+def test_a_stop_brakes_and_ignores_the_stopped_goals_commands_until_a_newer_goal():
+    backend, inbox, arm, target, t = moving_arm()
     moving = backend.read().velocity_rad_s[0]
     assert moving > 0.1
     t += PERIOD_S

@@ -3,12 +3,11 @@
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 from bus_schema.messages import PHASES_OUTSIDE_EPISODE
 from services.bridge.supervisor_loss import SupervisorLoss
-from tests.unit.bridge.test_arm_loop import HOME, PERIOD_S, _command, _setup
+from tests.unit.bridge.test_arm_loop import PERIOD_S, _command, moving_arm
 
 
 @pytest.mark.parametrize("phase", ["locate", "pick", "plan", "reach", "transfer", "released", "retract", "hold"])
@@ -54,21 +53,8 @@ def test_a_new_supervisor_episode_after_a_loss_can_be_stopped_again():
     assert loss.due(loss.take_tokens()) is not None and loss.stops == 2
 
 
-def _moving_arm():
-    backend, inbox, arm = _setup()
-    target = HOME + np.array([1.0, 0, 0, 0, 0, 0, 0])
-    t = 10.0
-    for k in range(20):
-        t += PERIOD_S
-        _command(inbox, t, target, seq=k)
-        inbox.supervisor.put(t, episode_id=1, phase="reach")
-        arm.tick(t, inbox)
-    assert backend.read().velocity_rad_s[0] > 0.1
-    return backend, inbox, arm, target, t
-
-
 def test_the_arm_brakes_protectively_at_the_first_tick_after_the_loss_and_says_so_once():
-    backend, inbox, arm, target, t = _moving_arm()
+    backend, inbox, arm, target, t = moving_arm("reach")
     moving = backend.read().velocity_rad_s[0]
     arm.supervisor_loss.token(False)
     t += PERIOD_S
@@ -88,7 +74,7 @@ def test_the_arm_brakes_protectively_at_the_first_tick_after_the_loss_and_says_s
 
 
 def test_a_last_done_state_drained_in_the_same_tick_as_the_loss_stops_nothing():
-    backend, inbox, arm, target, t = _moving_arm()
+    backend, inbox, arm, target, t = moving_arm("reach")
     t += PERIOD_S
     inbox.supervisor.put(t, episode_id=1, phase="done")  # its last state, then its token goes
     arm.supervisor_loss.token(False)
@@ -119,7 +105,7 @@ class DrainWithArrivals:
 def test_a_last_state_and_the_tokens_end_landing_during_the_drain_stop_nothing():
     """The token changes are taken before the states: a `done` that lands with the token's end
     while the loop drains is seen first at the next tick, and nothing stops."""
-    backend, inbox, arm, target, t = _moving_arm()
+    backend, inbox, arm, target, t = moving_arm("reach")
     drain = DrainWithArrivals(inbox.supervisor, arm.supervisor_loss, t)
     object.__setattr__(inbox, "supervisor", drain)
     for _ in range(3):

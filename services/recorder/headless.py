@@ -1,0 +1,157 @@
+"""The real Rerun viewer on a machine without a display or a GPU, kept to the machine.
+
+One place for what the screenshot command (`services.recorder.screenshot`) and the load tests
+beside the viewer (`tests/integration/headless_viewer.py`) both need:
+
+- a private X display (`headless_display`): Xvfb with its number chosen by Xvfb itself
+  (``-displayfd``), no TCP listener, stopped by its process id whatever ends the block, and by
+  the kernel when this process dies (``PR_SET_PDEATHSIG``);
+- the viewer's environment (`viewer_env`): that display, Mesa's software Vulkan (llvmpipe),
+  and private configuration, data, cache and runtime folders, with the viewer's usage analytics
+  disabled in them (they are on by default in a user's ``~/.config/rerun``: the viewer must
+  send nothing off the machine);
+- the native viewer of the ``rerun-sdk`` wheel (`viewer_binary`), which the callers start with
+  ``--bind 127.0.0.1``.
+
+Needs (Debian): ``apt-get install -y xvfb mesa-vulkan-drivers`` (`missing` says what is not there).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import glob
+import os
+import select
+import shutil
+import signal
+import subprocess
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from services.recorder.errors import RecorderError
+
+INSTALL = "apt-get install -y xvfb mesa-vulkan-drivers"
+_LAVAPIPE = "/usr/share/vulkan/icd.d/lvp_icd*.json"
+_PR_SET_PDEATHSIG = 1
+
+
+class HeadlessViewerError(RecorderError):
+    """The headless display or the viewer did not start (check the message: a missing package,
+    or the end of the program's own output)."""
+
+    bad_input = False
+
+
+def missing() -> str | None:
+    """Why the headless viewer cannot run on this machine (one line), or None."""
+    if shutil.which("Xvfb") is None:
+        return f"Xvfb not found (needs: {INSTALL})"
+    if not glob.glob(_LAVAPIPE):
+        return f"no software Vulkan driver (needs: {INSTALL})"
+    return None
+
+
+def viewer_binary() -> Path:
+    """The native viewer of the ``rerun-sdk`` wheel (the venv's ``rerun`` script only starts it)."""
+    import rerun_cli
+
+    return Path(rerun_cli.__file__).parent / "rerun"
+
+
+def die_with_parent() -> None:
+    """`preexec_fn` of a child that must not outlive this process (runs between fork and exec)."""
+    ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+
+
+def _read_line(fd: int, timeout_s: float) -> bytes:
+    """Bytes from `fd` up to a newline (b"" or a partial line when it did not come in time)."""
+    text, deadline = b"", time.monotonic() + timeout_s
+    while not text.endswith(b"\n"):
+        ready, _, _ = select.select([fd], [], [], max(deadline - time.monotonic(), 0.0))
+        chunk = os.read(fd, 64) if ready else b""
+        if not chunk:
+            break
+        text += chunk
+    return text
+
+
+def stop(proc: subprocess.Popen | None) -> None:
+    """Stop a process started here, by its pid (SIGTERM, then SIGKILL after 10 s)."""
+    if proc is None or proc.poll() is not None:
+        return
+    proc.terminate()
+    try:
+        proc.wait(10.0)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait(10.0)
+
+
+def _start_xvfb(log_path: Path, screen: str, timeout_s: float) -> tuple[subprocess.Popen, str]:
+    """A private X display: (Xvfb's process, ``:N``). Xvfb is stopped again when it does not
+    say its display, whatever ends the wait."""
+    read_fd, write_fd = os.pipe()
+    xvfb = None
+    try:
+        with log_path.open("wb") as log:
+            xvfb = subprocess.Popen(["Xvfb", "-displayfd", str(write_fd), "-nolisten", "tcp", "-screen", "0", screen],
+                                    pass_fds=(write_fd,), stdin=subprocess.DEVNULL, stdout=log, stderr=log,
+                                    preexec_fn=die_with_parent)
+        os.close(write_fd)
+        write_fd = -1
+        # Up to the newline: Xvfb may write the number and the newline apart, and dies on a
+        # pipe closed in between ("Cannot write display number to fd").
+        text = _read_line(read_fd, timeout_s)
+        if not (text.endswith(b"\n") and text.strip().isdigit()):
+            raise HeadlessViewerError(f"Xvfb did not say its display in {timeout_s:.0f} s: "
+                                      f"{log_path.read_text(errors='replace')[-500:].strip()}")
+    except BaseException:
+        stop(xvfb)
+        raise
+    finally:
+        os.close(read_fd)
+        if write_fd >= 0:
+            os.close(write_fd)
+    return xvfb, f":{text.decode().strip()}"
+
+
+@contextmanager
+def headless_display(workdir: Path, screen: str = "1280x800x24", timeout_s: float = 60.0) -> Iterator[str]:
+    """A private X display (``:N``) for the block; Xvfb's output goes to ``workdir/xvfb.log``.
+
+    Raises:
+        HeadlessViewerError: Xvfb or software Vulkan is missing, or Xvfb did not start.
+    """
+    reason = missing()
+    if reason is not None:
+        raise HeadlessViewerError(f"the headless Rerun viewer cannot run here: {reason}")
+    workdir.mkdir(parents=True, exist_ok=True)
+    xvfb, display = _start_xvfb(workdir / "xvfb.log", screen, timeout_s)
+    try:
+        yield display
+    finally:
+        stop(xvfb)
+
+
+def viewer_env(workdir: Path, display: str) -> dict[str, str]:
+    """The viewer's environment on `display`: software Vulkan, private XDG folders under
+    `workdir`, the viewer's analytics disabled there.
+
+    Raises:
+        HeadlessViewerError: the viewer could not disable its analytics.
+    """
+    env = dict(os.environ)
+    for name in ("XDG_CONFIG_HOME", "XDG_DATA_HOME", "XDG_CACHE_HOME", "XDG_RUNTIME_DIR"):
+        folder = workdir / name.lower()
+        folder.mkdir(mode=0o700, exist_ok=True)
+        env[name] = str(folder)
+    env.update(DISPLAY=display, WGPU_BACKEND="vulkan", RUST_LOG="error",
+               VK_ICD_FILENAMES=":".join(glob.glob(_LAVAPIPE)))
+    done = subprocess.run([str(viewer_binary()), "analytics", "disable"], env=env, timeout=30,
+                          stdin=subprocess.DEVNULL, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise HeadlessViewerError(f"the viewer could not disable its analytics in {env['XDG_CONFIG_HOME']}: "
+                                  f"{(done.stderr or done.stdout).strip()[-300:]}")
+    return env
