@@ -85,8 +85,8 @@ def _finalise(args: argparse.Namespace) -> int:
 def _screenshot(args: argparse.Namespace) -> int:
     from services.recorder.screenshot import screenshot
 
-    output = screenshot(Path(args.recording), Path(args.output_png), args.size)
-    sys.stdout.write(f"screenshot: {output} ({args.size} px) of {args.recording}\n")
+    width, height = screenshot(Path(args.recording), Path(args.output_png), args.size)
+    sys.stdout.write(f"screenshot: {args.output_png} ({width}x{height} px) of {args.recording}\n")
     return 0
 
 

@@ -35,6 +35,9 @@ from services.recorder.errors import RecorderError
 INSTALL = "apt-get install -y xvfb mesa-vulkan-drivers"
 _LAVAPIPE = "/usr/share/vulkan/icd.d/lvp_icd*.json"
 _PR_SET_PDEATHSIG = 1
+# Looked up once here: a child between fork and exec must not load a library (locks another
+# thread of this process may have held at the fork).
+_PRCTL = ctypes.CDLL("libc.so.6", use_errno=True).prctl
 
 
 class HeadlessViewerError(RecorderError):
@@ -62,7 +65,7 @@ def viewer_binary() -> Path:
 
 def die_with_parent() -> None:
     """`preexec_fn` of a child that must not outlive this process (runs between fork and exec)."""
-    ctypes.CDLL("libc.so.6", use_errno=True).prctl(_PR_SET_PDEATHSIG, signal.SIGTERM)
+    _PRCTL(_PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
 def _read_line(fd: int, timeout_s: float) -> bytes:
@@ -105,8 +108,8 @@ def _start_xvfb(log_path: Path, screen: str, timeout_s: float) -> tuple[subproce
         # pipe closed in between ("Cannot write display number to fd").
         text = _read_line(read_fd, timeout_s)
         if not (text.endswith(b"\n") and text.strip().isdigit()):
-            raise HeadlessViewerError(f"Xvfb did not say its display in {timeout_s:.0f} s: "
-                                      f"{log_path.read_text(errors='replace')[-500:].strip()}")
+            said = " ".join(log_path.read_text(errors="replace").split())[-300:]
+            raise HeadlessViewerError(f"Xvfb did not say its display in {timeout_s:.0f} s: {said}")
     except BaseException:
         stop(xvfb)
         raise
@@ -149,9 +152,13 @@ def viewer_env(workdir: Path, display: str) -> dict[str, str]:
         env[name] = str(folder)
     env.update(DISPLAY=display, WGPU_BACKEND="vulkan", RUST_LOG="error",
                VK_ICD_FILENAMES=":".join(glob.glob(_LAVAPIPE)))
-    done = subprocess.run([str(viewer_binary()), "analytics", "disable"], env=env, timeout=30,
-                          stdin=subprocess.DEVNULL, capture_output=True, text=True)
+    where = env["XDG_CONFIG_HOME"]
+    try:
+        done = subprocess.run([str(viewer_binary()), "analytics", "disable"], env=env, timeout=30,
+                              stdin=subprocess.DEVNULL, capture_output=True, text=True, preexec_fn=die_with_parent)
+    except subprocess.TimeoutExpired:
+        raise HeadlessViewerError(f"the viewer did not disable its analytics in {where} within 30 s") from None
     if done.returncode != 0:
-        raise HeadlessViewerError(f"the viewer could not disable its analytics in {env['XDG_CONFIG_HOME']}: "
-                                  f"{(done.stderr or done.stdout).strip()[-300:]}")
+        said = " ".join((done.stderr or done.stdout).split())[-300:]
+        raise HeadlessViewerError(f"the viewer could not disable its analytics in {where}: {said}")
     return env

@@ -240,6 +240,8 @@ class ServiceNode:
         stack's (for a publisher whose sending does not follow the stack's clock, as heartbeats
         on the simulation clock: its messages must not shift the others' stamps).
 
+        Not thread-safe: a service makes its publishers from one thread (its main one).
+
         Raises:
             BusError: `topic`'s publisher was made already with the other `own_stamps`.
         """

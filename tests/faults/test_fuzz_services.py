@@ -96,7 +96,7 @@ def test_recorder_survives_garbage_on_every_key(bus, make_node, tmp_path):
         node = make_node("fuzzer")
         rng = random.Random(11)
         for topic in TOPICS:
-            pub = node.publisher(topic)
+            pub = node.publisher(topic, own_stamps=topic is topics.HEARTBEAT)  # the node has its heartbeat
             _flood(pub, random_payloads(rng, 600))
             _flood(pub, structured_payloads(rng, SAMPLES[topic.suffix], 600))
         assert rec.proc.poll() is None, rec.log_text()[-2000:]

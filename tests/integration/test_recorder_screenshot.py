@@ -29,10 +29,10 @@ def test_a_screenshot_of_a_handover_shows_the_scene_and_leaves_the_recording_as_
                            "--output", str(output), "--size", "800x500"],
                           stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=380)
     assert done.returncode == 0, done.stdout + done.stderr
-    assert done.stdout.strip() == f"screenshot: {output} (800x500 px) of {recording}"
     assert hashlib.sha256(recording.read_bytes()).hexdigest() == before
     with Image.open(output) as picture:
         assert picture.size[0] >= 800 and picture.size[1] >= 500  # the window, at the display's scale
+        assert done.stdout.strip() == f"screenshot: {output} ({picture.size[0]}x{picture.size[1]} px) of {recording}"
         pixels = np.asarray(picture.convert("RGB"), dtype=float)
     # A drawn viewer, not a blank window: many colours, and the 3-D view (left) differs from the
     # signal panels (right).

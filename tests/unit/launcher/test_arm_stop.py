@@ -19,6 +19,7 @@ from services.launcher.handover_job import _EpisodeFeed
 from services.launcher.supervisor_silence import SupervisorSilence
 from services.launcher.node import Launcher
 from services.launcher.processes import Child
+from services.runtime.liveliness import alive_services
 from services.runtime.profile import load_profile_file
 from services.runtime.testing import wait_until
 
@@ -97,14 +98,15 @@ def test_the_monitor_stops_the_arm_when_a_safety_service_dies_in_the_job(tmp_pat
         launcher.wakeup.close()
 
 
-def test_the_jobs_stop_and_the_monitors_share_one_numbering_on_a_real_bus(make_node):
+def test_the_jobs_stop_and_the_monitors_share_one_numbering_on_a_real_bus(bus, make_node):
     """Two publishers of one source would number their messages from 0 each, and the recorder
     logs a stop once per (source, seq): the job's stop after the monitor's would be lost from
     the recording. The monitor's `ArmStop` and the job's feed both ask the launcher's node for a
     ``motion/stop`` publisher, and get its one: the two stops arrive numbered 0 and 1."""
     launcher, reader = make_node("launcher"), make_node("reader")
     stops = reader.subscribe(topics.MOTION_STOP, queue_size=16)
-    reader.ready()
+    reader.ready()  # alive means listening: once its token is seen, a put reaches it
+    assert wait_until(lambda: "reader" in alive_services(launcher.session, bus[0].prefix, 0.3), 5.0)
     arm_stop = ArmStop()
     arm_stop.attach(launcher.publisher(topics.MOTION_STOP))
     feed = _EpisodeFeed(launcher, say=lambda line: None, silence=SupervisorSilence())

@@ -7,13 +7,15 @@ import pytest
 
 from bus_schema import topics
 from services.runtime.errors import BusError
+from services.runtime.liveliness import alive_services
 from services.runtime.testing import wait_until
 
 
-def test_two_asks_for_one_topic_give_one_publisher_and_one_numbering(make_node):
+def test_two_asks_for_one_topic_give_one_publisher_and_one_numbering(bus, make_node):
     sender, reader = make_node("sender"), make_node("reader")
     states = reader.subscribe(topics.SUPERVISOR_STATE, queue_size=16)
-    reader.ready()
+    reader.ready()  # alive means listening: once its token is seen, a put reaches it
+    assert wait_until(lambda: "reader" in alive_services(sender.session, bus[0].prefix, 0.3), 5.0)
     first, second = sender.publisher(topics.SUPERVISOR_STATE), sender.publisher(topics.SUPERVISOR_STATE)
     assert first is second
     assert sender.publisher(topics.MOTION_STOP) is not first
