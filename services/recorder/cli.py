@@ -9,7 +9,8 @@
     rerun run.rrd                             # open it in the viewer
 
 Exit codes: 0 done; 1 a runtime failure (e.g. `finalise` given a file that is not a Rerun
-recording: one line, the file left unchanged); 2 a usage error (bad option, missing file).
+recording: one line, the file left unchanged); 2 a usage error (bad option, missing file);
+130 a subcommand stopped by Ctrl-C (the recorder itself stops with 0).
 """
 
 from __future__ import annotations

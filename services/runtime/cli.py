@@ -20,6 +20,8 @@ from services.runtime.zenoh_threads import use_one_zenoh_thread
 EXIT_OK = 0
 EXIT_FAILURE = 1
 EXIT_BAD_INPUT = 2
+#: A one-shot command stopped by Ctrl-C (128 + SIGINT, as a shell reports it).
+EXIT_INTERRUPTED = 130
 
 
 class _Parser(argparse.ArgumentParser):
@@ -117,7 +119,11 @@ def use_profile_robot(profile: Profile):
 
 def run_main(run: Callable[[argparse.Namespace], int], args: argparse.Namespace,
              service: str | None = None) -> int:
-    """Run a service's `run(args)` with logging set up and errors turned into exit codes."""
+    """Run a service's `run(args)` with logging set up and errors turned into exit codes.
+
+    Ctrl-C ends a service normally (exit 0: the way to stop it), but interrupts a one-shot
+    subcommand (``args.command`` other than ``run``: ``inspect``, ``screenshot``, ``offline``, …):
+    one line and exit 130, so that a script does not take it for done."""
     name = service or getattr(args, "service_name", None) or "handover"
     use_one_zenoh_thread()  # before this process's first Zenoh session
     keep_freed_memory()
@@ -126,7 +132,11 @@ def run_main(run: Callable[[argparse.Namespace], int], args: argparse.Namespace,
     try:
         return int(run(args) or 0)
     except KeyboardInterrupt:
-        return EXIT_OK
+        command = getattr(args, "command", None)
+        if command in (None, "run"):
+            return EXIT_OK
+        write_line(f"{name} {command}: interrupted", flush_s=1.0)
+        return EXIT_INTERRUPTED
     except ServiceError as exc:
         write_line(f"{name}: error: {exc}", flush_s=1.0)
         return EXIT_BAD_INPUT if is_input_error(exc) else EXIT_FAILURE
