@@ -6,10 +6,11 @@ beside the viewer (`tests/integration/headless_viewer.py`) both need:
 - a private X display (`headless_display`): Xvfb with its number chosen by Xvfb itself
   (``-displayfd``), no TCP listener, stopped by its process id whatever ends the block, and by
   the kernel when this process dies (``PR_SET_PDEATHSIG``);
-- the viewer's environment (`viewer_env`): that display, Mesa's software Vulkan (llvmpipe),
-  and private configuration, data, cache and runtime folders, with the viewer's usage analytics
-  disabled in them (they are on by default in a user's ``~/.config/rerun``: the viewer must
-  send nothing off the machine);
+- the environment of every ``rerun`` run (`private_env`: the viewer, ``rrd optimize``):
+  private configuration, data, cache and runtime folders, with Rerun's usage analytics disabled
+  in them (they are on by default in a user's ``~/.config/rerun``: nothing may be sent off the
+  machine); for the viewer, that display and Mesa's software Vulkan (llvmpipe) too
+  (`viewer_env`, `on_display`);
 - the native viewer of the ``rerun-sdk`` wheel (`viewer_binary`), which the callers start with
   ``--bind 127.0.0.1``.
 
@@ -138,20 +139,18 @@ def headless_display(workdir: Path, screen: str = "1280x800x24", timeout_s: floa
         stop(xvfb)
 
 
-def viewer_env(workdir: Path, display: str) -> dict[str, str]:
-    """The viewer's environment on `display`: software Vulkan, private XDG folders under
-    `workdir`, the viewer's analytics disabled there.
+def private_env(workdir: Path) -> dict[str, str]:
+    """The environment of any ``rerun`` run here (the viewer, ``rrd optimize``): private XDG
+    folders under `workdir`, Rerun's usage analytics disabled in them.
 
     Raises:
-        HeadlessViewerError: the viewer could not disable its analytics.
+        HeadlessViewerError: Rerun could not disable its analytics.
     """
     env = dict(os.environ)
     for name in ("XDG_CONFIG_HOME", "XDG_DATA_HOME", "XDG_CACHE_HOME", "XDG_RUNTIME_DIR"):
         folder = workdir / name.lower()
         folder.mkdir(mode=0o700, exist_ok=True)
         env[name] = str(folder)
-    env.update(DISPLAY=display, WGPU_BACKEND="vulkan", RUST_LOG="error",
-               VK_ICD_FILENAMES=":".join(glob.glob(_LAVAPIPE)))
     where = env["XDG_CONFIG_HOME"]
     try:
         done = subprocess.run([str(viewer_binary()), "analytics", "disable"], env=env, timeout=30,
@@ -162,3 +161,18 @@ def viewer_env(workdir: Path, display: str) -> dict[str, str]:
         said = " ".join((done.stderr or done.stdout).split())[-300:]
         raise HeadlessViewerError(f"the viewer could not disable its analytics in {where}: {said}")
     return env
+
+
+def on_display(env: dict[str, str], display: str) -> dict[str, str]:
+    """`env` (from `private_env`) for the viewer on `display`, with Mesa's software Vulkan."""
+    return {**env, "DISPLAY": display, "WGPU_BACKEND": "vulkan", "RUST_LOG": "error",
+            "VK_ICD_FILENAMES": ":".join(glob.glob(_LAVAPIPE))}
+
+
+def viewer_env(workdir: Path, display: str) -> dict[str, str]:
+    """The viewer's environment on `display`: `private_env` under `workdir`, `on_display`.
+
+    Raises:
+        HeadlessViewerError: Rerun could not disable its analytics.
+    """
+    return on_display(private_env(workdir), display)

@@ -32,8 +32,9 @@ from services.recorder.headless import (
     die_with_parent,
     headless_display,
     missing,
+    on_display,
+    private_env,
     viewer_binary,
-    viewer_env,
 )
 from services.runtime.paths import unwritable_dir
 
@@ -149,12 +150,13 @@ def screenshot(recording: Path, output: Path, size: str = "1600x1000") -> tuple[
         work = Path(tmp)
         layout, compact, picture = work / "handover.rbl", work / "compact.rrd", work / "screenshot.png"
         _layout(recording, layout)
+        env = private_env(work)  # every rerun run here: analytics off, nothing sent off the machine
         _run([str(binary), "rrd", "optimize", str(recording), "-o", str(compact)], "rerun rrd optimize",
-             OPTIMIZE_TIMEOUT_S)
+             OPTIMIZE_TIMEOUT_S, env=env)
         with headless_display(work, f"{width * 2}x{height * 2}x24") as display:
             _run([str(binary), "--bind", "127.0.0.1", "--port", "auto", "--window-size", f"{width}x{height}",
                   "--screenshot-to", str(picture), str(compact), str(layout)],
-                 "the Rerun viewer", VIEWER_TIMEOUT_S, env=viewer_env(work, display))
+                 "the Rerun viewer", VIEWER_TIMEOUT_S, env=on_display(env, display))
         if not picture.is_file() or picture.stat().st_size == 0:
             raise HeadlessViewerError("the Rerun viewer exited without writing its screenshot")
         with Image.open(picture) as image:
