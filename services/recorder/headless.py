@@ -48,6 +48,11 @@ class HeadlessViewerError(RecorderError):
     bad_input = False
 
 
+def one_line(text: str, limit: int = 300) -> str:
+    """The end of a program's output (at most `limit` characters) on one line, for an error."""
+    return " ".join(text.split())[-limit:]
+
+
 def missing() -> str | None:
     """Why the headless viewer cannot run on this machine (one line), or None."""
     if shutil.which("Xvfb") is None:
@@ -109,7 +114,7 @@ def _start_xvfb(log_path: Path, screen: str, timeout_s: float) -> tuple[subproce
         # pipe closed in between ("Cannot write display number to fd").
         text = _read_line(read_fd, timeout_s)
         if not (text.endswith(b"\n") and text.strip().isdigit()):
-            said = " ".join(log_path.read_text(errors="replace").split())[-300:]
+            said = one_line(log_path.read_text(errors="replace"))
             raise HeadlessViewerError(f"Xvfb did not say its display in {timeout_s:.0f} s: {said}")
     except BaseException:
         stop(xvfb)
@@ -158,8 +163,8 @@ def private_env(workdir: Path) -> dict[str, str]:
     except subprocess.TimeoutExpired:
         raise HeadlessViewerError(f"the viewer did not disable its analytics in {where} within 30 s") from None
     if done.returncode != 0:
-        said = " ".join((done.stderr or done.stdout).split())[-300:]
-        raise HeadlessViewerError(f"the viewer could not disable its analytics in {where}: {said}")
+        raise HeadlessViewerError(f"the viewer could not disable its analytics in {where}: "
+                                  f"{one_line(done.stderr or done.stdout)}")
     return env
 
 

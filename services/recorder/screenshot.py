@@ -33,6 +33,7 @@ from services.recorder.headless import (
     headless_display,
     missing,
     on_display,
+    one_line,
     private_env,
     viewer_binary,
 )
@@ -99,11 +100,6 @@ def check_paths(recording: Path, output: Path) -> None:
         raise RecorderError(f"--output {output}: cannot write into {output.parent} ({why})")
 
 
-def _one_line(text: str, limit: int = 300) -> str:
-    """The end of a program's output on one line."""
-    return " ".join(text.split())[-limit:]
-
-
 def _run(command: list[str], what: str, timeout_s: float, env: dict[str, str] | None = None,
          preexec_fn: Callable[[], None] | None = die_with_parent) -> None:
     """Run a helper program (it dies with this process); its output's end in the error."""
@@ -113,7 +109,7 @@ def _run(command: list[str], what: str, timeout_s: float, env: dict[str, str] | 
     except subprocess.TimeoutExpired:
         raise HeadlessViewerError(f"{what} did not finish in {timeout_s:.0f} s") from None
     if done.returncode != 0:
-        raise HeadlessViewerError(f"{what} failed (exit {done.returncode}): {_one_line(done.stderr or done.stdout)}")
+        raise HeadlessViewerError(f"{what} failed (exit {done.returncode}): {one_line(done.stderr or done.stdout)}")
 
 
 def _layout(recording: Path, path: Path) -> None:
