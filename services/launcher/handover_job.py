@@ -78,18 +78,20 @@ class JobResult:
 
 class _EpisodeFeed:
     """The job's bus side: its subscriptions and the arm's protective stop, feeding what it
-    reads to the episode watch and the supervisor's silence."""
+    reads to the episode watch and the supervisor's silence. `follow_episodes` False (the
+    ``none`` job's watch): phases are not said and summaries not read."""
 
     def __init__(self, node: ServiceNode, say: Callable[[str], None],
-                 silence: SupervisorSilence | SimClockSilence) -> None:
+                 silence: SupervisorSilence | SimClockSilence, follow_episodes: bool = True) -> None:
         self.say = say
         self.silence = silence
+        self.follow_episodes = follow_episodes
         self.watch = EpisodeWatch()
         # Read when the job looks (`seconds_to_next_look`); only a summary wakes it early.
         self.states = node.subscribe(topics.SUPERVISOR_STATE, queue_size=256, wake=False)
         #: When the job last took the states in (monotonic s): what it takes in now came since.
         self.looked_s = time.monotonic()
-        self.summaries = node.subscribe(topics.EPISODE, queue_size=64)
+        self.summaries = node.subscribe(topics.EPISODE, queue_size=64) if follow_episodes else None
         self.truth = node.subscribe(topics.SIM_TRUTH, queue_size=1024, wake=False)
         # The node's one `motion/stop` publisher (`ServiceNode.publisher`): the launcher's
         # monitor sends through it too, so both stops share one numbering and are recorded.
@@ -120,12 +122,14 @@ class _EpisodeFeed:
                 heard_s = arrival_estimate_s(heard_s, looked_s, stamp_s - wall_minus_monotonic_s)
             self.silence.heard(heard_s, rx.msg.episode_id, stamp_s)
             line = self.watch.state(rx.msg)
-            if line is not None:
+            if line is not None and self.follow_episodes:
                 self.say(line)
                 self.last_progress_s = time.monotonic()
 
     def take_summaries(self, episodes: int) -> JobResult | None:
         """Report the new summaries; the job's result once one failed or `episodes` are done."""
+        if self.summaries is None:
+            return None
         for rx in self.summaries.drain():
             if not self.watch.accepts(rx.msg):
                 self.say(f"WARNING: ignored an episode summary from {rx.msg.source!r} for episode "
@@ -147,8 +151,13 @@ class _EpisodeFeed:
 def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[], str | None],
                      say: Callable[[str], None], episode_timeout_s: float = 90.0,
                      supervisor_pid: Callable[[], int | None] | None = None,
-                     delivery_pids: tuple[int, ...] = ()) -> JobResult:
+                     delivery_pids: tuple[int, ...] = (), follow_episodes: bool = True) -> JobResult:
     """Follow `episodes` episodes (0: until aborted); print progress with `say`.
+
+    `follow_episodes` False: only the watch of the supervisor's silence (and the stop on an
+    abort), until aborted: the ``none`` job's, so that a frozen supervisor stops the arm with
+    no job too. Phases are not said, summaries not judged, `episodes` and
+    `episode_timeout_s` unused.
 
     `supervisor_pid` (one host): the supervisor's process id, so that a supervisor starved of
     CPU (its threads waiting on the run queue) is not called silent before
@@ -158,7 +167,9 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
     stack's time (`SimClockSilence`)."""
     silence: SupervisorSilence | SimClockSilence = (
         SimClockSilence() if node.clock.is_sim else SupervisorSilence(supervisor_pid, delivery_pids))
-    feed = _EpisodeFeed(node, say, silence)
+    feed = _EpisodeFeed(node, say, silence, follow_episodes)
+    if not follow_episodes:
+        episodes, episode_timeout_s = 0, math.inf
     wait_s = seconds_to_wall_grid(WATCH_PERIOD_S)
     while True:
         wake_s = time.monotonic() + wait_s

@@ -1,8 +1,10 @@
-"""The jobs of `handover-up` that use the bus (``handover``, ``demo``): run one on the
-launcher's own bus node, and turn its result into the job's outcome.
+"""The jobs of `handover-up` that use the bus (``handover``, ``demo``, and ``none``'s watch of
+the supervisor): run one on the launcher's own bus node, and turn its result into the job's
+outcome.
 
 ``handover`` follows the supervisor's episodes (`services.launcher.handover_job`); ``demo`` is
-the joint-space demo (`services.launcher.demo`). The launcher says the outcome's summary lines
+the joint-space demo (`services.launcher.demo`); ``none`` only watches the supervisor's
+silence (`supervisor_watch_job`). The launcher says the outcome's summary lines
 when the job succeeded, and takes its failure as the run's otherwise.
 """
 
@@ -72,6 +74,22 @@ def handover_job(episodes: int, episode_timeout_s: float, abort_reason: Callable
         say(handover_job_line(episodes))
         return handover_outcome(run_handover_job(node, episodes, abort_reason, say, episode_timeout_s,
                                                  supervisor_pid, delivery_pids))
+
+    return run
+
+
+def supervisor_watch_job(abort_reason: Callable[[], str | None], say: Callable[[str], None],
+                         supervisor_pid: Callable[[], int | None] | None,
+                         delivery_pids: tuple[int, ...]) -> Callable[[ServiceNode], JobOutcome]:
+    """The ``none`` job's watch of the supervisor, to run with `run_on_bus`: the handover job's
+    judgement of a silent supervisor (and its protective stop), without following the
+    episodes. Nothing else sees a frozen supervisor (its liveliness token stays up)."""
+    from services.launcher.handover_job import run_handover_job
+
+    def run(node: ServiceNode) -> JobOutcome:
+        result = run_handover_job(node, 0, abort_reason, say, supervisor_pid=supervisor_pid,
+                                  delivery_pids=delivery_pids, follow_episodes=False)
+        return JobOutcome(result.ok, result.message)
 
     return run
 

@@ -8,8 +8,9 @@
 3. Wait for every liveliness token (time-out names the services that did not come up).
 4. Run the job (``handover``: follow the supervisor's handover episodes and report them;
    ``demo``: joint-space demo; ``check``: stop once all are alive; ``none``: run until
-   Ctrl-C) while a monitor thread watches the children and their liveliness (it sleeps until
-   a child exits, a token changes or a stop comes: `services.launcher.wakeup`).
+   Ctrl-C, the supervisor's silence still watched as in ``handover``) while a monitor
+   thread watches the children and their liveliness (it sleeps until a child exits, a token
+   changes or a stop comes: `services.launcher.wakeup`).
 5. Shut down in order: SIGINT, SIGTERM after `term_timeout_s`, SIGKILL after as long again.
 
 Output (the children's, prefixed, and the launcher's own) never blocks the launcher: it waits
@@ -27,6 +28,7 @@ import os
 import signal
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from services.launcher.arm_stop import ArmStop
@@ -50,7 +52,7 @@ from services.launcher.core import (
     shutdown_order,
 )
 from services.launcher.errors import LauncherError
-from services.launcher.jobs import demo_job, handover_job, run_on_bus
+from services.launcher.jobs import demo_job, handover_job, run_on_bus, supervisor_watch_job
 from services.launcher.logfiles import LogFiles, own_line
 from services.launcher.logins import RunLogins, bus_line, child_env
 from services.launcher.precompile import precompile_stack
@@ -309,6 +311,10 @@ class Launcher:
         child = self.children.get("supervisor")
         return None if child is None else child.pid
 
+    def _supervisor_pid_if_local(self) -> Callable[[], int | None] | None:
+        """`_supervisor_pid` on one host; None when the bus spans hosts (no silence excused)."""
+        return None if self.profile.allow_non_loopback else self._supervisor_pid
+
     def _delivery_pids(self) -> tuple[int, ...]:
         """Processes a supervisor state passes through to this watch: the router and this one."""
         return tuple(pid for pid in (self.router_pid, os.getpid()) if pid)
@@ -317,17 +323,27 @@ class Launcher:
         job = self.options.job
         if job == "check":
             return EXIT_OK
+        has_supervisor = any(s.name == "supervisor" for s in self.specs)
         if job == "none":
             say("stack running; press Ctrl-C to stop")
-            self.stop_requested.wait()
-            return EXIT_INTERRUPTED if self.interrupted else (EXIT_FAILED if self.failure else EXIT_OK)
+            if not has_supervisor:
+                self.stop_requested.wait()
+                return EXIT_INTERRUPTED if self.interrupted else (EXIT_FAILED if self.failure else EXIT_OK)
+            # No job, but the supervisor is still watched: nothing else sees it freeze.
+            watch = supervisor_watch_job(self._abort_reason, say, self._supervisor_pid_if_local(),
+                                         self._delivery_pids())
+            outcome = run_on_bus(self.bus_profile, self.stop_requested, watch, self.arm_stop)
+            if self.interrupted:
+                return EXIT_INTERRUPTED
+            if not outcome.ok and not self.failure:
+                self._fail(outcome.failure)
+            return EXIT_FAILED if self.failure else EXIT_OK
         if job == "handover":
-            if not any(s.name == "supervisor" for s in self.specs):
+            if not has_supervisor:
                 raise LauncherError("the handover job needs a supervisor service in the profile "
                                     "([services.supervisor]); use --job demo or check without one")
             on_bus = handover_job(self._episodes(), self.options.episode_timeout_s, self._abort_reason, say,
-                                  None if self.profile.allow_non_loopback else self._supervisor_pid,
-                                  self._delivery_pids())
+                                  self._supervisor_pid_if_local(), self._delivery_pids())
         else:
             on_bus = demo_job(self._abort_reason, say)
         self.episode_running = True  # no safety service is restarted from here on

@@ -100,3 +100,37 @@ def test_while_states_come_the_job_looks_only_when_the_newest_could_begin_a_sile
     assert job.message.startswith("supervisor: silent: no supervisor/state for ")
     silent_s = float(re.search(r"for ([0-9.]+) s", job.message).group(1))
     assert SUPERVISOR_SILENT_S <= silent_s < SUPERVISOR_SILENT_S + 0.5
+
+
+def test_the_none_jobs_watch_stops_a_silent_supervisor_and_follows_no_episode(make_node):
+    """`follow_episodes=False` (``handover-up --job none``): no phase is said, a failed
+    episode's summary ends nothing, and a supervisor silent in an episode is still stopped."""
+    node = make_node("launcher")
+    said: list[str] = []
+    result: dict = {}
+    thread = threading.Thread(target=lambda: result.setdefault("job", run_handover_job(
+        node, 1, lambda: None, said.append, episode_timeout_s=0.5, follow_episodes=False)), daemon=True)
+    thread.start()
+    supervisor = make_node("supervisor")
+    states = supervisor.publisher(topics.SUPERVISOR_STATE)
+    summaries = supervisor.publisher(topics.EPISODE)
+    stops = make_node("bridge").subscribe(topics.MOTION_STOP)
+    time.sleep(0.3)
+    end = time.monotonic() + 1.2  # longer than the handover job's episode time-out above
+    while time.monotonic() < end:
+        for phase in ("locate", "pick", "reach"):
+            states.put(phase=phase, episode_id=1, grip_request="open")
+            time.sleep(0.02)
+    summaries.put(episode_id=1, outcome="failed", reason="a test's failed episode")
+    time.sleep(0.1)
+    assert thread.is_alive(), result  # a failed episode ends the handover job, not this watch
+    for _ in range(10):
+        states.put(phase="reach", episode_id=2, grip_request="open")
+        time.sleep(0.02)
+    thread.join(5.0)
+    assert not thread.is_alive()
+    job = result["job"]
+    assert not job.ok and job.message.startswith("supervisor: silent: no supervisor/state for "), job.message
+    assert said == [], said  # quiet: the phases are not said
+    assert wait_until(lambda: stops.latest() is not None, 2.0)
+    assert stops.latest().msg.protective and "supervisor: silent" in stops.latest().msg.reason
