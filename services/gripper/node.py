@@ -15,7 +15,8 @@ process logs, at exit, the median and p99 of "wrench received → command publis
 
 The main thread also runs the watchdog: a tick every 1/rate_hz judges freshness even when
 the sensors go silent (then the service holds), re-arms on a new supervisor episode and
-sends the heartbeat. Commands and
+sends the heartbeat. A supervisor state wakes it only when the episode or the grip request
+changed (`SupervisorWord`); the others, 20 a second at rest, are read at its next tick. Commands and
 release events are safety keys (congestion control BLOCK, high priority); the state stream
 may drop.
 
@@ -46,7 +47,7 @@ log = logging.getLogger(__name__)
 
 SERVICE_NAME = "gripper"
 #: The main thread wakes at least this often, s (the heartbeat has its own thread; a shutdown
-#: and a supervisor message wake it at once).
+#: and a supervisor state with a new episode or grip request wake it at once).
 _MAX_WAIT_S = HOLD_REPEAT_S
 #: Latency samples kept for the exit log (wrench receive → command published).
 _LATENCY_WINDOW = 20_000
@@ -149,6 +150,22 @@ class _GripperIO:
                 "latency_p99_us": round(float(np.percentile(a, 99)), 1)}
 
 
+class SupervisorWord:
+    """What of the supervisor's state the gripper acts on: (episode, grip request)."""
+
+    def __init__(self) -> None:
+        self.last: tuple[int, str] | None = None
+
+    def changed(self, msg) -> bool:
+        """Whether `msg` (a `supervisor/state`) differs from the last one seen in what the
+        gripper acts on (Zenoh's thread: the subscription's callbacks run one at a time)."""
+        word = (msg.episode_id, msg.grip_request)
+        if word == self.last:
+            return False
+        self.last = word
+        return True
+
+
 def _offer_queued(gripper_io: _GripperIO, wrench_sub, motion_sub) -> None:
     """Main-thread path (`step_in_callback = false`): hand the queued samples to the core."""
     with gripper_io.lock:
@@ -189,7 +206,9 @@ def run_gripper(profile: Profile, config: GripperConfig, core: GripperCore | Non
     core = core or GripperCore(config)
     with ServiceNode(SERVICE_NAME, profile) as node:
         gripper_io = _GripperIO(node, config, core)
-        supervisor_sub = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16)
+        # A supervisor state wakes the loop only when it says something new to the gripper
+        # (the episode or the grip request); the others wait for the next tick.
+        supervisor_sub = node.subscribe(topics.SUPERVISOR_STATE, queue_size=16, wake_if=SupervisorWord().changed)
         session = node.session
         subscribers, queued = [], None
         clock = node.clock

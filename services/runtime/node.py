@@ -262,11 +262,12 @@ class ServiceNode:
         return pub
 
     def subscribe(self, topic: Topic, queue_size: int = 256, wake: bool = True,
-                  wall_time: bool = False) -> TypedSubscription[Any]:
+                  wall_time: bool = False, wake_if: Callable[[Any], bool] | None = None) -> TypedSubscription[Any]:
         """Subscribe to `topic`; `wake=False`: its messages do not wake `wait()`. `wall_time`:
         on the simulation clock too, its messages are taken in as they arrive and timed on the
-        local monotonic clock (heartbeats: liveness is a wall-clock matter)."""
-        sub: TypedSubscription[Any] = TypedSubscription(self, topic, queue_size, wake, wall_time)
+        local monotonic clock (heartbeats: liveness is a wall-clock matter). `wake_if`: a
+        message wakes `wait()` only when ``wake_if(msg)`` is true (called on Zenoh's thread)."""
+        sub: TypedSubscription[Any] = TypedSubscription(self, topic, queue_size, wake, wall_time, wake_if)
         self._subscriptions.append(sub)
         return sub
 

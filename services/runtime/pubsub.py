@@ -12,6 +12,7 @@ import logging
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
@@ -80,7 +81,9 @@ class TypedSubscription(Generic[M]):
       the node's `wait()` (for the few keys a loop must react to at once: stops, releases).
       A loop may rest such a subscription (`wakes_loop = False`, the gripper while it does not
       release): its samples then wait in a ring channel as with ``wake=False``, and no Python
-      runs per sample until it wakes again.
+      runs per sample until it wakes again. With `wake_if`, a sample wakes the loop only when
+      ``wake_if(msg)`` is true (it is still decoded and queued either way): the gripper wakes
+      for a supervisor state only when the episode or the grip request changed.
     - ``wake=False``: samples wait in a Zenoh ring channel (bounded, oldest dropped, no Python
       and no GIL on Zenoh's thread) and are decoded by the reader when it calls `latest()`,
       `drain()`, `age_s()` or `stats`. For streams a loop reads at its own tick this removes a
@@ -89,8 +92,11 @@ class TypedSubscription(Generic[M]):
     """
 
     def __init__(self, node: ServiceNode, topic: Topic, queue_size: int, wake: bool = True,
-                 wall_time: bool = False) -> None:
+                 wall_time: bool = False, wake_if: Callable[[M], bool] | None = None) -> None:
         self.topic = topic
+        #: Runs on Zenoh's thread for each accepted sample of a waking subscription: whether
+        #: it wakes the loop (None: every one; an exception in it wakes the loop).
+        self._wake_if = wake_if
         # The simulation clock reads every stream at its steps: no callbacks (`_release`).
         wake = wake and not (node.clock.is_sim and node.clock_role != "observer" and not wall_time)
         self.wake = wake
@@ -128,8 +134,18 @@ class TypedSubscription(Generic[M]):
         rx = time.monotonic()
         with self._pump_lock:
             accepted = self._accept(sample, rx)
-        if accepted and self._wakes_loop:
+            latest = self._latest
+        if accepted and self._wakes_loop and self._wakes_for(latest):
             self._node._notify()
+
+    def _wakes_for(self, item: Received[M] | None) -> bool:
+        """Whether the accepted sample `item` wakes the loop (`wake_if`; Zenoh's thread)."""
+        if self._wake_if is None or item is None:
+            return True
+        try:
+            return bool(self._wake_if(item.msg))
+        except Exception:  # noqa: BLE001 - never into Zenoh's thread; a doubtful sample wakes
+            return True
 
     @property
     def wakes_loop(self) -> bool:

@@ -79,9 +79,19 @@ def scene_input(scene: str, receiver_hand_position_m: Sequence[float] | None,
     return SceneInput(hand.copy(), obj.copy())
 
 
+def _bounded(value: float) -> float:
+    """`value` within ±`POSITION_BOUND_M`: NaN → 0, ±inf → ±bound (NumPy's ``nan_to_num``
+    then ``clip``, in plain floats: three values cost less in Python than through NumPy)."""
+    if -POSITION_BOUND_M <= value <= POSITION_BOUND_M:
+        return value
+    if value != value:  # NaN
+        return 0.0
+    return POSITION_BOUND_M if value > 0.0 else -POSITION_BOUND_M
+
+
 def _vec(v: np.ndarray) -> tuple[float, float, float]:
-    c = np.clip(np.nan_to_num(np.asarray(v, float)), -POSITION_BOUND_M, POSITION_BOUND_M)
-    return (float(c[0]), float(c[1]), float(c[2]))
+    x, y, z = np.asarray(v, float).tolist()
+    return (_bounded(x), _bounded(y), _bounded(z))
 
 
 #: `sim/kinect_truth` goes out when the body moved by more than 1 nm (`settled_key`) or this

@@ -45,3 +45,19 @@ def test_entering_transfer_rearms_the_controller_from_the_held_load():
 def test_an_unknown_request_is_refused():
     with pytest.raises(GripperError, match="grip request"):
         GripperCore(GripperConfig()).set_request("squeeze")
+
+
+def test_a_supervisor_state_wakes_the_gripper_only_when_its_episode_or_grip_request_changed():
+    from bus_schema import topics
+    from services.gripper.node import SupervisorWord
+
+    def state(phase: str, episode_id: int, grip_request: str):
+        return topics.SUPERVISOR_STATE.type(seq=0, stamp_ns=0, source="supervisor", phase=phase,
+                                            episode_id=episode_id, grip_request=grip_request)
+
+    word = SupervisorWord()
+    woke = [word.changed(state(phase, episode, request)) for phase, episode, request in [
+        ("idle", 0, "open"), ("idle", 0, "open"), ("locate", 1, "open"), ("pick", 1, "open"),
+        ("pick", 1, "carry"), ("reach", 1, "carry"), ("transfer", 1, "transfer"), ("done", 1, "open"),
+        ("done", 1, "open"), ("locate", 2, "open")]]
+    assert woke == [True, False, True, False, True, False, True, True, False, True]

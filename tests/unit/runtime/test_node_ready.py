@@ -151,3 +151,26 @@ def test_only_exact_copies_are_dropped_once_a_subscription_has_rested(bus):
             sub._take(Received(msg, 0.0))
         assert [(rx.msg.seq, rx.msg.stamp_ns) for rx in sub.drain()] == [(7, 1_000), (8, 2_000), (7, 3_000)]
         assert sub.stats.duplicates == 1
+
+
+def test_wake_if_wakes_only_for_the_messages_it_accepts_and_queues_every_one(bus):
+    """`wake_if`: each message is decoded and queued, only those it says yes to wake `wait()`;
+    a predicate that raises wakes the loop (a doubtful sample is never slept through)."""
+    profile, peer = bus
+    with ServiceNode("probe5", profile, install_signal_handlers=False) as node:
+        def wake_if(msg) -> bool:
+            if msg.seq == 2:
+                raise ValueError("a broken predicate")
+            return msg.seq % 2 == 1
+
+        sub = node.subscribe(topics.MOTION_STOP, wake_if=wake_if)
+        node.ready()
+        assert wait_until(lambda: "probe5" in alive_services(peer, profile.prefix, 0.3), 5.0)
+        node.wait(0.0)
+        woke = []
+        for seq in range(4):
+            _put_stop(profile, peer, seq)
+            assert wait_until(lambda seq=seq: sub.stats.accepted == seq + 1, 5.0)
+            woke.append(node.wait(0.05))
+        assert woke == [False, True, True, True]  # 0: no; 1: yes; 2: the predicate raised; 3: yes
+        assert [rx.msg.seq for rx in sub.drain()] == [0, 1, 2, 3]

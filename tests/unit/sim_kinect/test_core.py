@@ -96,3 +96,14 @@ def test_cli_bad_input_is_one_line_and_exit_2(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["--scene", "nowhere"])
     assert exc.value.code == 2
+
+
+def test_truth_vectors_are_bounded_as_numpys_nan_to_num_then_clip():
+    from services.sim_kinect.core import POSITION_BOUND_M, _vec
+
+    for v in ([0.1, -2.5, 3.0], [np.nan, np.inf, -np.inf], [1e300, -1e300, -0.0], [100.0, -100.0, 99.9999]):
+        a = np.asarray(v, float)
+        expected = np.clip(np.nan_to_num(a), -POSITION_BOUND_M, POSITION_BOUND_M).tolist()
+        got = _vec(a)
+        assert [repr(x) for x in got] == [repr(x) for x in expected], (v, got, expected)
+        assert all(type(x) is float for x in got)
