@@ -20,6 +20,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from bus_schema import topics
+from bus_schema.messages import PHASES_OUTSIDE_EPISODE
 from services.launcher.episode_watch import EpisodeReport, EpisodeWatch
 from services.launcher.supervisor_silence import (
     NOTE_AFTER_S,
@@ -33,6 +34,11 @@ from services.runtime.clock import WALL_GRID_PHASE_S, first_grid_time_s, seconds
 #: Period of the job's look at the supervisor's freshness while it is quiet, s (on the host's
 #: shared grid).
 WATCH_PERIOD_S = 0.02
+#: Period of the job's look while the supervisor's newest state is outside an episode
+#: (`PHASES_OUTSIDE_EPISODE`: the arm is not driven then), s: ``--job none``'s watch runs for
+#: as long as the stack, resting after the last episode most of it. A silence there is still
+#: judged, at the next look; a state of an episode brings the faster looks back.
+REST_LOOK_PERIOD_S = 0.25
 #: A loop iteration that began this much after the time it asked to wake means the launcher
 #: itself was starved: states may still wait in its socket, s.
 SELF_STALL_S = 0.08
@@ -50,8 +56,12 @@ def arrival_estimate_s(taken_s: float, previous_look_s: float, sent_s: float) ->
     return sent_s if previous_look_s < sent_s <= taken_s else taken_s
 
 
-def seconds_to_next_look(silence: SupervisorSilence | SimClockSilence, now_s: float) -> float:
+def seconds_to_next_look(silence: SupervisorSilence | SimClockSilence, now_s: float,
+                         resting: bool = False) -> float:
     """How long the job may sleep before it looks at the supervisor's freshness again, s.
+
+    `resting`: the newest state is outside an episode: the next point of the
+    `REST_LOOK_PERIOD_S` grid.
 
     On the wall clock and one host, while the supervisor's states come, nothing can be judged
     before the newest is `NOTE_AFTER_S` old (timed by `arrival_estimate_s`): the job sleeps
@@ -61,6 +71,8 @@ def seconds_to_next_look(silence: SupervisorSilence | SimClockSilence, now_s: fl
     then timed by the look that takes it in) and on the simulation clock, it looks every
     `WATCH_PERIOD_S`: a silence is noted, judged and stopped on the same grid points as when
     it always looked. `now_s`: monotonic s."""
+    if resting:
+        return seconds_to_wall_grid(REST_LOOK_PERIOD_S, now_s)
     if isinstance(silence, SupervisorSilence) and silence.one_host and silence.episode_begun \
             and silence.last_state_s is not None:
         look_s = first_grid_time_s(silence.last_state_s + NOTE_AFTER_S, WATCH_PERIOD_S, WALL_GRID_PHASE_S)
@@ -92,6 +104,8 @@ class _EpisodeFeed:
         #: When the job last took the states in (monotonic s): what it takes in now came since.
         self.looked_s = time.monotonic()
         self.summaries = node.subscribe(topics.EPISODE, queue_size=64) if follow_episodes else None
+        #: Whether the newest state is outside an episode (`REST_LOOK_PERIOD_S`).
+        self.resting = False
         self.truth = node.subscribe(topics.SIM_TRUTH, queue_size=1024, wake=False)
         # The node's one `motion/stop` publisher (`ServiceNode.publisher`): the launcher's
         # monitor sends through it too, so both stops share one numbering and are recorded.
@@ -121,6 +135,7 @@ class _EpisodeFeed:
             if isinstance(self.silence, SupervisorSilence) and self.silence.one_host:
                 heard_s = arrival_estimate_s(heard_s, looked_s, stamp_s - wall_minus_monotonic_s)
             self.silence.heard(heard_s, rx.msg.episode_id, stamp_s)
+            self.resting = rx.msg.phase in PHASES_OUTSIDE_EPISODE
             line = self.watch.state(rx.msg)
             if line is not None and self.follow_episodes:
                 self.say(line)
@@ -199,4 +214,4 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
         if not math.isinf(episode_timeout_s) and time.monotonic() - feed.last_progress_s > episode_timeout_s:
             return JobResult(False, f"no progress from the supervisor for {episode_timeout_s:.0f} s",
                              feed.watch.reports)
-        wait_s = seconds_to_next_look(silence, time.monotonic())
+        wait_s = seconds_to_next_look(silence, time.monotonic(), feed.resting)

@@ -134,3 +134,42 @@ def test_the_none_jobs_watch_stops_a_silent_supervisor_and_follows_no_episode(ma
     assert said == [], said  # quiet: the phases are not said
     assert wait_until(lambda: stops.latest() is not None, 2.0)
     assert stops.latest().msg.protective and "supervisor: silent" in stops.latest().msg.reason
+
+
+def test_outside_an_episode_the_watch_looks_four_times_a_second_and_judges_at_once_in_one(make_node):
+    """The ``none`` job's watch after the last episode (states ``done`` at 20 Hz): it looks on
+    the 0.25 s rest grid, not every 80 ms; once a state of an episode comes, a silence is
+    stopped in time again."""
+    from services.launcher.handover_job import REST_LOOK_PERIOD_S
+
+    node = make_node("launcher")
+    looks: list[float] = []
+    wait = node.wait
+
+    def counting_wait(timeout_s: float) -> bool:
+        looks.append(time.monotonic())
+        return wait(timeout_s)
+
+    node.wait = counting_wait
+    result: dict = {}
+    thread = threading.Thread(target=lambda: result.setdefault("job", run_handover_job(
+        node, 0, lambda: None, lambda _: None, supervisor_pid=lambda: None, follow_episodes=False)), daemon=True)
+    thread.start()
+    states = make_node("supervisor").publisher(topics.SUPERVISOR_STATE)
+    time.sleep(0.3)
+    start = time.monotonic()
+    while time.monotonic() < start + 2.0:
+        states.put(phase="done", episode_id=1, grip_request="open")
+        time.sleep(0.05)
+    end = time.monotonic()
+    resting_looks = sum(start + 0.3 <= t < end for t in looks)
+    assert resting_looks <= 1.7 / REST_LOOK_PERIOD_S + 3, resting_looks  # ~7; 21 or more at 80 ms
+    assert thread.is_alive(), result
+    for _ in range(10):
+        states.put(phase="reach", episode_id=2, grip_request="open")
+        time.sleep(0.02)
+    silent_from = time.monotonic()
+    thread.join(5.0)
+    assert not thread.is_alive()
+    assert result["job"].message.startswith("supervisor: silent: no supervisor/state for "), result["job"].message
+    assert time.monotonic() - silent_from < SUPERVISOR_SILENT_S + 0.3
