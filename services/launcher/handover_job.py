@@ -34,11 +34,6 @@ from services.runtime.clock import WALL_GRID_PHASE_S, first_grid_time_s, seconds
 #: Period of the job's look at the supervisor's freshness while it is quiet, s (on the host's
 #: shared grid).
 WATCH_PERIOD_S = 0.02
-#: Period of the job's look while the supervisor's newest state is outside an episode
-#: (`PHASES_OUTSIDE_EPISODE`: the arm is not driven then), s: ``--job none``'s watch runs for
-#: as long as the stack, resting after the last episode most of it. A silence there is still
-#: judged, at the next look; a state of an episode brings the faster looks back.
-REST_LOOK_PERIOD_S = 0.25
 #: A loop iteration that began this much after the time it asked to wake means the launcher
 #: itself was starved: states may still wait in its socket, s.
 SELF_STALL_S = 0.08
@@ -56,12 +51,8 @@ def arrival_estimate_s(taken_s: float, previous_look_s: float, sent_s: float) ->
     return sent_s if previous_look_s < sent_s <= taken_s else taken_s
 
 
-def seconds_to_next_look(silence: SupervisorSilence | SimClockSilence, now_s: float,
-                         resting: bool = False) -> float:
+def seconds_to_next_look(silence: SupervisorSilence | SimClockSilence, now_s: float) -> float:
     """How long the job may sleep before it looks at the supervisor's freshness again, s.
-
-    `resting`: the newest state is outside an episode: the next point of the
-    `REST_LOOK_PERIOD_S` grid.
 
     On the wall clock and one host, while the supervisor's states come, nothing can be judged
     before the newest is `NOTE_AFTER_S` old (timed by `arrival_estimate_s`): the job sleeps
@@ -71,8 +62,6 @@ def seconds_to_next_look(silence: SupervisorSilence | SimClockSilence, now_s: fl
     then timed by the look that takes it in) and on the simulation clock, it looks every
     `WATCH_PERIOD_S`: a silence is noted, judged and stopped on the same grid points as when
     it always looked. `now_s`: monotonic s."""
-    if resting:
-        return seconds_to_wall_grid(REST_LOOK_PERIOD_S, now_s)
     if isinstance(silence, SupervisorSilence) and silence.one_host and silence.episode_begun \
             and silence.last_state_s is not None:
         look_s = first_grid_time_s(silence.last_state_s + NOTE_AFTER_S, WATCH_PERIOD_S, WALL_GRID_PHASE_S)
@@ -104,24 +93,30 @@ class _EpisodeFeed:
         #: When the job last took the states in (monotonic s): what it takes in now came since.
         self.looked_s = time.monotonic()
         self.summaries = node.subscribe(topics.EPISODE, queue_size=64) if follow_episodes else None
-        #: Whether the newest state is outside an episode (`REST_LOOK_PERIOD_S`).
-        self.resting = False
-        self.truth = node.subscribe(topics.SIM_TRUTH, queue_size=1024, wake=False)
+        # The episodes' reports, and on the simulation clock the stack's time (`SimClockSilence`).
+        self.truth = (node.subscribe(topics.SIM_TRUTH, queue_size=1024, wake=False)
+                      if follow_episodes or node.clock.is_sim else None)
+        #: Whether the newest state is outside an episode (`PHASES_OUTSIDE_EPISODE`).
+        self.resting = True
         # The node's one `motion/stop` publisher (`ServiceNode.publisher`): the launcher's
         # monitor sends through it too, so both stops share one numbering and are recorded.
         self.stop_pub = node.publisher(topics.MOTION_STOP)
         #: When the last progress line or summary came (monotonic s).
         self.last_progress_s = time.monotonic()
 
-    def stopped(self, message: str) -> JobResult:
-        """Protective stop of the arm by the launcher itself (the supervisor may be gone)."""
-        try:
-            self.stop_pub.put(reason=f"protective stop: {message}"[:512], protective=True)
-        except Exception:  # noqa: BLE001 - the session is closing: the bridge holds on its command time-out
-            pass
+    def stopped(self, message: str, send: bool = True) -> JobResult:
+        """Protective stop of the arm by the launcher itself (the supervisor may be gone);
+        `send` False: the job's result only."""
+        if send:
+            try:
+                self.stop_pub.put(reason=f"protective stop: {message}"[:512], protective=True)
+            except Exception:  # noqa: BLE001 - the session is closing: the bridge holds on its command time-out
+                pass
         return JobResult(False, message, self.watch.reports)
 
     def take_truth(self) -> None:
+        if self.truth is None:
+            return
         for rx in self.truth.drain():
             self.silence.saw_stack_time(rx.msg.stamp_ns / 1e9)
             self.watch.truth(rx.msg)
@@ -170,8 +165,8 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
     """Follow `episodes` episodes (0: until aborted); print progress with `say`.
 
     `follow_episodes` False: only the watch of the supervisor's silence (and the stop on an
-    abort), until aborted: the ``none`` job's, so that a frozen supervisor stops the arm with
-    no job too. Phases are not said, summaries not judged, `episodes` and
+    abort during an episode), until aborted: the ``none`` job's, so that a frozen supervisor
+    stops the arm with no job too. Phases are not said, summaries not judged, `episodes` and
     `episode_timeout_s` unused.
 
     `supervisor_pid` (one host): the supervisor's process id, so that a supervisor starved of
@@ -199,7 +194,9 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
             return ended
         reason = abort_reason()
         if reason is not None:
-            return feed.stopped(reason)
+            # The ``none`` watch stops the arm on an abort (Ctrl-C, a failed child) only in an
+            # episode: an idle stack's Ctrl-C brakes nothing.
+            return feed.stopped(reason, send=follow_episodes or not feed.resting)
         silent_s = silence.silent_s()
         if silent_s > SUPERVISOR_SILENT_S and late:
             # This loop was itself starved: let the states that waited in the socket in first.
@@ -214,4 +211,4 @@ def run_handover_job(node: ServiceNode, episodes: int, abort_reason: Callable[[]
         if not math.isinf(episode_timeout_s) and time.monotonic() - feed.last_progress_s > episode_timeout_s:
             return JobResult(False, f"no progress from the supervisor for {episode_timeout_s:.0f} s",
                              feed.watch.reports)
-        wait_s = seconds_to_next_look(silence, time.monotonic(), feed.resting)
+        wait_s = seconds_to_next_look(silence, time.monotonic())

@@ -111,7 +111,9 @@ def run_on_bus(bus_profile: Profile, stop_requested: threading.Event, job: Calla
     """Run `job` on a bus node of the launcher's own (``launcher``, on `bus_profile`), which
     stops once `stop_requested` is set. `arm_stop`: given a ``motion/stop`` publisher of that
     node while the job runs (the monitor thread's protective stop)."""
-    with ServiceNode("launcher", bus_profile, install_signal_handlers=False, clock_role="observer") as node:
+    # No heartbeat: nothing watches the launcher's (its login may not even publish one).
+    with ServiceNode("launcher", bus_profile, install_signal_handlers=False, clock_role="observer",
+                     heartbeat=False) as node:
         def stop_when_asked() -> None:
             stop_requested.wait()
             node.request_stop()

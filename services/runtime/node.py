@@ -89,13 +89,14 @@ class ServiceNode:
     ``wake=False`` so that each message does not cost the service a thread switch.
 
     A heartbeat thread sends the service's heartbeat (`runtime/heartbeat`, every
-    `heartbeat_period_s`: 0.1 s on one host, 0.05 s across hosts) while the process runs, so a
-    frozen (SIGSTOP) or dead process falls silent at once while a long computation in the main
-    loop (a reach plan, a depth frame on a loaded machine) does not look like a fault; a stalled
-    main loop shows in the freshness of the service's own data streams instead. A heartbeat
-    thread that wakes more than 0.1 s late logs why (`services.runtime.starvation`: no CPU, or
-    no GIL; a warning from 0.2 s, at most one line per 5 s). `HANDOVER_FAULTS` rules for this
-    service (`services.runtime.faults`) delay or drop its publications (fault tests only).
+    `heartbeat_period_s`: 0.1 s on one host, 0.05 s across hosts; ``heartbeat=False``: none,
+    the launcher's own node) while the process runs, so a frozen (SIGSTOP) or dead process
+    falls silent at once while a long computation in the main loop (a reach plan, a depth
+    frame on a loaded machine) does not look like a fault; a stalled main loop shows in the
+    freshness of the service's own data streams instead. A heartbeat thread that wakes more
+    than 0.1 s late logs why (`services.runtime.starvation`: no CPU, or no GIL; a warning from
+    0.2 s, at most one line per 5 s). `HANDOVER_FAULTS` rules for this service
+    (`services.runtime.faults`) delay or drop its publications (fault tests only).
 
     `clock` is the stack's clock (`services.runtime.clock`): the wall clock, or on a profile
     run on the simulation clock the bridge's simulation's. There `clock_role` says what this
@@ -115,8 +116,10 @@ class ServiceNode:
         connect_timeout_s: float = 10.0,
         install_signal_handlers: bool = True,
         clock_role: str = "participant",
+        heartbeat: bool = True,
     ) -> None:
         self.name = name
+        self._sends_heartbeats = heartbeat
         self.profile = profile
         self.mode = mode
         self.connect_timeout_s = connect_timeout_s
@@ -164,9 +167,10 @@ class ServiceNode:
         if not isinstance(self.clock, WallClock):
             self.clock.attach(self)
             SENDER_CLOCK.follow(self.clock.stamp_ns)
-        self._heartbeat_pub = self.publisher(HEARTBEAT, own_stamps=True)
-        self.heartbeat()
-        threading.Thread(target=self._beat_forever, name=f"{self.name} heartbeat", daemon=True).start()
+        if self._sends_heartbeats:  # the launcher's own node is watched by no one: it sends none
+            self._heartbeat_pub = self.publisher(HEARTBEAT, own_stamps=True)
+            self.heartbeat()
+            threading.Thread(target=self._beat_forever, name=f"{self.name} heartbeat", daemon=True).start()
         log.info(
             "%s connected to the bus",
             self.name,

@@ -82,8 +82,10 @@ class TypedSubscription(Generic[M]):
       A loop may rest such a subscription (`wakes_loop = False`, the gripper while it does not
       release): its samples then wait in a ring channel as with ``wake=False``, and no Python
       runs per sample until it wakes again. With `wake_if`, a sample wakes the loop only when
-      ``wake_if(msg)`` is true (it is still decoded and queued either way): the gripper wakes
-      for a supervisor state only when the episode or the grip request changed.
+      ``wake_if(msg)`` is true (it is still decoded and queued either way; an exact copy that
+      is dropped wakes nothing): the gripper wakes for a supervisor state only when the
+      episode or the grip request changed. (What waited in the ring of a rested subscription
+      is taken in by the reader, not judged by it.)
     - ``wake=False``: samples wait in a Zenoh ring channel (bounded, oldest dropped, no Python
       and no GIL on Zenoh's thread) and are decoded by the reader when it calls `latest()`,
       `drain()`, `age_s()` or `stats`. For streams a loop reads at its own tick this removes a
@@ -133,15 +135,19 @@ class TypedSubscription(Generic[M]):
     def _on_sample(self, sample: zenoh.Sample) -> None:
         rx = time.monotonic()
         with self._pump_lock:
+            before = self._latest
             accepted = self._accept(sample, rx)
             latest = self._latest
-        if accepted and self._wakes_loop and self._wakes_for(latest):
+        if accepted and self._wakes_loop and self._wakes_for(None if latest is before else latest):
             self._node._notify()
 
     def _wakes_for(self, item: Received[M] | None) -> bool:
-        """Whether the accepted sample `item` wakes the loop (`wake_if`; Zenoh's thread)."""
-        if self._wake_if is None or item is None:
+        """Whether an accepted sample wakes the loop (`wake_if`; Zenoh's thread): `item`, the
+        message it queued, None when it queued none (an exact copy, dropped)."""
+        if self._wake_if is None:
             return True
+        if item is None:
+            return False
         try:
             return bool(self._wake_if(item.msg))
         except Exception:  # noqa: BLE001 - never into Zenoh's thread; a doubtful sample wakes

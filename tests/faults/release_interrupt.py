@@ -110,6 +110,8 @@ def measure_release_interrupts(episodes: int, seed: int = 0, timeout_s: float = 
             if protective_stops:
                 break  # the supervisor never moves again after a protective stop
             for rx in stops.drain():
+                if rx.msg.protective and rx.msg.source == "launcher":  # its watch of a silent supervisor
+                    protective_stops.append(rx.msg.reason)
                 if pending is not None and pending["stop"] is None and rx.msg.reason == "release":
                     pending["stop"] = rx.rx_monotonic
                     pending["stop_ns"] = rx.msg.stamp_ns

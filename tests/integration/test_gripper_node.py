@@ -98,3 +98,32 @@ def test_undecodable_payloads_hold_and_are_reported(gripper, make_node):
     assert s.mode == "hold" and "undecodable" in s.reason
     _stream(wrench, motion, 0.3)  # good data again: the service goes on
     assert states.latest().msg.mode == "grasp" and gripper.proc.poll() is None
+
+
+def _main_thread_wakes(pid: int) -> int:
+    """Voluntary context switches of process `pid`'s main thread so far (each a sleep ended)."""
+    with open(f"/proc/{pid}/task/{pid}/status") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith("voluntary_ctxt_switches"))
+
+
+def test_supervisor_states_wake_the_gripper_only_when_its_episode_or_grip_request_changes(gripper, make_node):
+    """States at 100 Hz that say nothing new to the gripper leave its main thread at its 20 Hz
+    hold ticks; a changed grip request still reaches it (the command opens at once)."""
+    node = make_node("supervisor")
+    states = node.publisher(topics.SUPERVISOR_STATE)
+    commands = make_node().subscribe(topics.GRIPPER_COMMAND, queue_size=2000)
+    assert wait_until(lambda: commands.latest() is not None, 5.0)
+    for _ in range(20):  # the gripper takes the request in
+        states.put(phase="pick", episode_id=1, grip_request="carry")
+        time.sleep(0.01)
+    before = _main_thread_wakes(gripper.pid)
+    start = time.monotonic()
+    while time.monotonic() < start + 2.0:
+        states.put(phase="pick", episode_id=1, grip_request="carry")
+        time.sleep(0.01)
+    wakes = _main_thread_wakes(gripper.pid) - before
+    # 2 s of hold ticks at 20 Hz: about 40 (a state waking the loop: 200 more).
+    assert wakes < 120, wakes
+    commands.drain()
+    states.put(phase="done", episode_id=1, grip_request="open")
+    assert wait_until(lambda: any(rx.msg.grip_force_n == 0.0 for rx in commands.drain()), 0.5)

@@ -127,16 +127,3 @@ def test_across_hosts_the_feed_times_a_state_by_the_look_that_took_it_in():
     node.rings[topics.SUPERVISOR_STATE.suffix].waiting = [Received(state, taken_s)]
     feed.take_states()
     assert silence.last_state_s == taken_s
-
-
-@pytest.mark.parametrize("quiet_s", [0.0, 0.05, NOTE_AFTER_S, 0.3])
-def test_outside_an_episode_it_looks_on_the_rest_grid_whatever_the_silence(quiet_s):
-    from services.launcher.handover_job import REST_LOOK_PERIOD_S
-
-    now_s = GRID_0 + 0.007 + quiet_s
-    wait_s = seconds_to_next_look(_heard(GRID_0 + 0.007), now_s, resting=True)
-    look_s = now_s + wait_s
-    assert 0.0 < wait_s <= REST_LOOK_PERIOD_S * 1.01
-    steps = (look_s - WALL_GRID_PHASE_S) / REST_LOOK_PERIOD_S
-    assert steps == pytest.approx(round(steps), abs=1e-6)  # a point of the rest grid
-    assert seconds_to_next_look(_heard(GRID_0 + 0.007), now_s) <= max(NOTE_AFTER_S, WATCH_PERIOD_S) + 0.02
