@@ -1,5 +1,6 @@
 """ServiceNode: one Zenoh session per service, liveliness, heartbeat, shutdown; its typed
-publishers and subscriptions are in `services.runtime.pubsub`.
+publishers and subscriptions are in `services.runtime.pubsub`, its heartbeat thread in
+`services.runtime.heartbeat`.
 
 Rules this module enforces (NOTES.md, Zenoh):
 - every session uses the profile's loopback-only config (multicast and gossip off);
@@ -15,7 +16,6 @@ Freshness is judged by local receive time (`time.monotonic()`), never by the sen
 from __future__ import annotations
 
 import logging
-import os
 import signal
 import threading
 import time
@@ -30,39 +30,29 @@ from services.runtime.clock import WALL_GRID_PHASE_S, SimClock, WallClock, grid_
 from services.runtime.clock_owner import ClockOwner, make_clock
 from services.runtime.errors import BusError
 from services.runtime.faults import rules_for
-from services.runtime.logs import RateLimitedLog, kv
+from services.runtime.logs import kv
 from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile
 from services.runtime.signals import SignalRelay
 from services.runtime.pubsub import Received, SubscriptionStats, TypedPublisher, TypedSubscription
 from services.runtime.session import open_session
 from services.runtime.stamps import SENDER_CLOCK, SenderClock
-from services.runtime.starvation import LATE_WAKE_REPORT_S, WakeSampler, late_wake_report
+from services.runtime.heartbeat import (
+    HEARTBEAT_PERIOD_S,
+    MULTIHOST_HEARTBEAT_PERIOD_S,
+    Heartbeat,
+    heartbeat_period_s,
+)
 
 __all__ = ["HEARTBEAT_PERIOD_S", "MULTIHOST_HEARTBEAT_PERIOD_S", "Received", "ServiceNode", "SubscriptionStats",
            "TypedPublisher", "TypedSubscription", "heartbeat_period_s", "open_session"]
 
-#: Period of every service's heartbeat (`runtime/heartbeat`) on one host, s. There the
-#: supervisor asks the kernel whether a quiet service was killed (its pidfd) or stopped
-#: (state ``T``), so a beat need not also carry that news fast: one beat every 0.1 s
-#: still shows a stopped service within 0.13 s
-#: (`services.supervisor.watchdog.judging_for_beats`), and each beat costs
-#: a thread wake in the sender and a hop through the router to the supervisor and the
-#: recorder (issue 16: 80 fewer messages a second on the idle stack).
-HEARTBEAT_PERIOD_S = 0.1
-#: Heartbeat period on a bus that spans hosts (``bus.allow_non_loopback``), s: the
-#: supervisor cannot read another host's processes, so a frozen one is only a silence.
-MULTIHOST_HEARTBEAT_PERIOD_S = 0.05
 
 
 #: Simulation clock: a loop's deadline counts as reached this close before it, s (whole-ns
 #: times against the grid's float sums).
 SIM_TOLERANCE_S = 1e-6
 
-
-def heartbeat_period_s(profile: Profile) -> float:
-    """The services' heartbeat period under `profile`, s."""
-    return MULTIHOST_HEARTBEAT_PERIOD_S if profile.allow_non_loopback else HEARTBEAT_PERIOD_S
 
 log = logging.getLogger(__name__)
 
@@ -136,11 +126,7 @@ class ServiceNode:
         self._signals = SignalRelay(self._on_signal, name=f"{name} signals")
         self.loops: list[RateLoop] = []
         self.fault_rules = rules_for(name, enabled=profile.fault_injection)
-        self._heartbeat_pub: TypedPublisher[Any] | None = None
-        self._beat_lock = threading.Lock()
-        self._beats = 0
-        self._next_beat_s = 0.0
-        self._opened_s = time.monotonic()
+        self._heartbeat: Heartbeat | None = None
         #: Period of this service's heartbeat, s (`heartbeat_period_s`).
         self.heartbeat_period_s = heartbeat_period_s(profile)
         #: The stack's clock (`services.runtime.clock`): loops, time-outs and freshness read it.
@@ -163,14 +149,13 @@ class ServiceNode:
         except BaseException:
             self._signals.restore()
             raise
-        self._opened_s = time.monotonic()
         if not isinstance(self.clock, WallClock):
             self.clock.attach(self)
             SENDER_CLOCK.follow(self.clock.stamp_ns)
         if self._sends_heartbeats:  # the launcher's own node is watched by no one: it sends none
-            self._heartbeat_pub = self.publisher(HEARTBEAT, own_stamps=True)
-            self.heartbeat()
-            threading.Thread(target=self._beat_forever, name=f"{self.name} heartbeat", daemon=True).start()
+            self._heartbeat = Heartbeat(self.name, self.publisher(HEARTBEAT, own_stamps=True),
+                                        self.heartbeat_period_s, self.stop_event)
+            self._heartbeat.start()
         log.info(
             "%s connected to the bus",
             self.name,
@@ -284,49 +269,11 @@ class ServiceNode:
             self._new_data = True
             self._wake.notify_all()
 
-    def _beat_forever(self) -> None:
-        """Send a heartbeat every `heartbeat_period_s` on a fixed grid (one wake per beat) and
-        say why when a wake came late (the `/proc` figures are read at every wake, parsed only
-        for a late one)."""
-        period_s = self.heartbeat_period_s
-        late_log = RateLimitedLog(log, 5.0)
-        with WakeSampler() as sampler:  # opened here: it samples this thread
-            previous = sampler.raw()
-            # On the host's shared grid: the first beat is at its first point, up to a period on.
-            beats = RateLoop(1.0 / period_s, self.stop_event, name=f"{self.name} heartbeat",
-                             align_phase_s=WALL_GRID_PHASE_S)
-            for _tick in beats:
-                now = sampler.raw()
-                self._beat()
-                lateness_s = now.monotonic_s - previous.monotonic_s - period_s
-                if lateness_s > LATE_WAKE_REPORT_S:  # says whether the process lacked CPU or the GIL
-                    report = late_wake_report(previous.parsed(), now.parsed(), period_s)
-                    if report is not None:  # a diagnostic: a silence that matters is the supervisor's warning
-                        late_log.info("late heartbeat", f"{self.name}: {report}")
-                previous = now
-
     def heartbeat(self) -> None:
         """Send the heartbeat now if the last one is at least a period old (any thread; the
         heartbeat thread sends them anyway, so a loop need not call this)."""
-        now = time.monotonic()
-        with self._beat_lock:
-            if self._heartbeat_pub is None or now < self._next_beat_s:
-                return
-        self._beat()
-
-    def _beat(self) -> None:
-        """Send one heartbeat (the heartbeat thread's grid, and `heartbeat()`)."""
-        now = time.monotonic()
-        with self._beat_lock:
-            if self._heartbeat_pub is None:
-                return
-            self._next_beat_s = now + self.heartbeat_period_s
-            beats = self._beats
-            self._beats += 1
-        try:
-            self._heartbeat_pub.put(uptime_s=min(now - self._opened_s, 86400.0), beats=beats, pid=os.getpid())
-        except Exception as exc:  # noqa: BLE001 - closing session: the heartbeat must never kill a service
-            log.debug("heartbeat not sent: %s", exc)
+        if self._heartbeat is not None:
+            self._heartbeat.beat_if_due()
 
     def wait(self, timeout_s: float) -> bool:
         """Block until any subscription has new data, shutdown, or `timeout_s` passes.
