@@ -30,6 +30,12 @@ from services.runtime.clock import WALL_GRID_PHASE_S, SimClock, WallClock, grid_
 from services.runtime.clock_owner import ClockOwner, make_clock
 from services.runtime.errors import BusError
 from services.runtime.faults import rules_for
+from services.runtime.heartbeat import (
+    HEARTBEAT_PERIOD_S,
+    MULTIHOST_HEARTBEAT_PERIOD_S,
+    Heartbeat,
+    heartbeat_period_s,
+)
 from services.runtime.logs import kv
 from services.runtime.loop import RateLoop
 from services.runtime.profile import Profile
@@ -37,17 +43,9 @@ from services.runtime.signals import SignalRelay
 from services.runtime.pubsub import Received, SubscriptionStats, TypedPublisher, TypedSubscription
 from services.runtime.session import open_session
 from services.runtime.stamps import SENDER_CLOCK, SenderClock
-from services.runtime.heartbeat import (
-    HEARTBEAT_PERIOD_S,
-    MULTIHOST_HEARTBEAT_PERIOD_S,
-    Heartbeat,
-    heartbeat_period_s,
-)
 
 __all__ = ["HEARTBEAT_PERIOD_S", "MULTIHOST_HEARTBEAT_PERIOD_S", "Received", "ServiceNode", "SubscriptionStats",
            "TypedPublisher", "TypedSubscription", "heartbeat_period_s", "open_session"]
-
-
 
 #: Simulation clock: a loop's deadline counts as reached this close before it, s (whole-ns
 #: times against the grid's float sums).
@@ -78,14 +76,9 @@ class ServiceNode:
     streams that a loop reads at its own tick (``latest()``, ``drain()``) should pass
     ``wake=False`` so that each message does not cost the service a thread switch.
 
-    A heartbeat thread sends the service's heartbeat (`runtime/heartbeat`, every
-    `heartbeat_period_s`: 0.1 s on one host, 0.05 s across hosts; ``heartbeat=False``: none,
-    the launcher's own node) while the process runs, so a frozen (SIGSTOP) or dead process
-    falls silent at once while a long computation in the main loop (a reach plan, a depth
-    frame on a loaded machine) does not look like a fault; a stalled main loop shows in the
-    freshness of the service's own data streams instead. A heartbeat thread that wakes more
-    than 0.1 s late logs why (`services.runtime.starvation`: no CPU, or no GIL; a warning from
-    0.2 s, at most one line per 5 s). `HANDOVER_FAULTS` rules for this service
+    A heartbeat thread (`services.runtime.heartbeat`) beats while the process runs
+    (``heartbeat=False``: none, the launcher's own node); a stalled main loop shows in the
+    freshness of the service's own data streams instead. `HANDOVER_FAULTS` rules for this service
     (`services.runtime.faults`) delay or drop its publications (fault tests only).
 
     `clock` is the stack's clock (`services.runtime.clock`): the wall clock, or on a profile
