@@ -14,6 +14,7 @@ integrated exactly (q* − q decays by exp(−Δt/τ) per step), so the servo is
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,6 +73,31 @@ class SimulatedArm:
         """Hold the current position: the target becomes where the arm is now, at rest."""
         self.target_rad = self.state.position_rad.copy()
         self.feedforward_rad_s = np.zeros_like(self.target_rad)
+
+    def still_for_dt_up_to_s(self) -> float:
+        """The longest step (s) after which the state is still bit for bit what it is now,
+        proven from the servo's equations: 0.0 when none is (the arm moves, or the
+        feed-forward is not zero). An arm settled a few units in the last place short of its
+        target (the lag term then rounds away) stays put for any dt up to the bound: each
+        joint's step error × (1 − exp(−dt/τ)) stays below 0.45 of the gap to its nearest
+        neighbouring float, under the 0.5 at which q + step could round away from q.
+        Valid while the state, the target and the feed-forward are unchanged."""
+        q = self.state.position_rad
+        if self.feedforward_rad_s.any() or self.state.velocity_rad_s.any():
+            return 0.0
+        if np.signbit(self.state.velocity_rad_s).any() or not np.all((q >= self.limits.lower_rad)
+                                                                       & (q <= self.limits.upper_rad)):
+            return 0.0  # a −0.0 velocity would become +0.0; a position outside would be clipped
+        bound = math.inf
+        gaps = np.minimum(np.nextafter(q, np.inf) - q, q - np.nextafter(q, -np.inf))
+        for error, gap in zip((self.target_rad - q).tolist(), gaps.tolist()):
+            if error == 0.0:
+                continue  # q + (±0.0) is q for any dt (a −0.0 position fails the caller's check)
+            ratio = 0.45 * gap / abs(error)
+            if not ratio < 1.0:
+                continue
+            bound = min(bound, -self.time_constant_s * math.log1p(-ratio))
+        return bound
 
     def step(self, dt_s: float) -> ArmState:
         """Advance the servo by `dt_s` seconds and return the new state."""

@@ -16,6 +16,7 @@ output must be what the scene built from the plant's `Observation` before.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -24,6 +25,7 @@ import pytest
 from handover_model.robots.baxter import arm_model
 from robot_sim.contact.config import ContactSimError
 from robot_sim.contact.generic_step import step_generic
+from robot_sim.arm import SimulatedArm
 from robot_sim.contact.plant import ContactPlant
 from robot_sim.handover_scene import HandoverScene, SceneOutput, SceneParams
 from services.bridge.handover_backend import HandoverSimBackend
@@ -159,6 +161,53 @@ def test_the_cheaper_tick_publishes_what_full_stepping_published(behaviour):
     assert new.scene.episode == old.scene.episode == 2
 
 
+def test_the_arm_rests_through_a_jittered_loop_bit_for_bit():
+    """A real loop's dt moves every tick (9.6–12.6 ms here): the servo settled a few units in
+    the last place short of its target still skips its steps, and what is published stays
+    that of full stepping."""
+    rng = np.random.default_rng(7)
+    poses = hs.poses()
+    held = [hs.Tick(poses.transfer, np.zeros(7), 0.0) for _ in range(400)]  # settles ulps short of it
+    script = [dataclasses.replace(tick, dt_s=tick.dt_s * float(rng.uniform(0.96, 1.26)))
+              for tick in episode(hs.default_backend("taking"), poses) + held]
+    new, old = hs.default_backend("taking"), full_stepping("taking")
+    skipped = 0
+    for i, tick in enumerate(script):
+        before = new._at_rest
+        for backend in (new, old):
+            hs.apply(backend, tick)
+        assert published(new) == published(old), f"tick {i}"
+        assert scene_state(new) == scene_state(old), f"tick {i}"
+        skipped += before is not None and new._at_rest is before
+    assert skipped > 700, skipped  # 447 when only a step's own dt counted
+
+
+def test_the_settled_servo_bound_is_exact_for_every_dt_under_it():
+    """`SimulatedArm.still_for_dt_up_to_s`: a full servo step of any dt up to the bound leaves
+    a settled arm bit for bit as it is; a moving arm or a feed-forward proves nothing."""
+    rng = np.random.default_rng(3)
+    for trial in range(20):
+        arm = SimulatedArm(0.05)
+        arm.set_target(arm.state.position_rad + rng.uniform(-0.5, 0.5, 7))
+        for _ in range(3000):
+            arm.step(0.01)
+        bound = arm.still_for_dt_up_to_s()
+        assert bound > 0.0105, (trial, bound)  # the 100 Hz loop's ticks rest
+        settled = repr((arm.state.position_rad.tolist(), arm.state.velocity_rad_s.tolist()))
+        for dt in [bound, *rng.uniform(1e-6, bound, 200).tolist()]:
+            probe = SimulatedArm(0.05, initial_position_rad=arm.state.position_rad)
+            probe.state, probe.target_rad = arm.state, arm.target_rad
+            after = probe.step(dt)
+            assert repr((after.position_rad.tolist(), after.velocity_rad_s.tolist())) == settled, (trial, dt)
+    moving = SimulatedArm(0.05)
+    moving.set_target(moving.state.position_rad + 0.3)
+    moving.step(0.01)
+    assert moving.still_for_dt_up_to_s() == 0.0
+    fed = SimulatedArm(0.05)
+    fed.set_target(fed.state.position_rad, feedforward_rad_s=np.full(7, 1e-3))
+    assert fed.still_for_dt_up_to_s() == 0.0
+
+
 def test_a_wrongly_skipped_servo_step_is_caught():
     """The comparison catches a servo step skipped while the arm moves."""
     poses = hs.poses()
@@ -173,7 +222,7 @@ def test_a_wrongly_skipped_servo_step_is_caught():
         backend.command(tick.target_rad, tick.feedforward_rad_s)
     arm = new.arm
     new._at_rest = (arm.state, None, (arm.target_rad.tobytes(), arm.feedforward_rad_s.tobytes(),
-                                      arm.time_constant_s))  # wrong: the arm moves
+                                      arm.time_constant_s), 0.0)  # wrong: the arm moves
     new.step(0.01)
     old.step(0.01)
     assert published(new) != published(old)
