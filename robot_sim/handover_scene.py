@@ -173,6 +173,9 @@ class HandoverScene:
         self._optical_dt_s = float(self._config.every(self._config.sensors.optical_report_rate_hz) * self._config.dt_s)
         self._shoulder_key: bytes | None = None  # the hand position `_shoulder_m` is the shoulder for
         self.episode = 0
+        #: Whether the contact physics may sleep once still (`robot_sim.contact.rest`): set by
+        #: the caller while no episode runs (nobody judges the physics then); off by default.
+        self.may_sleep = False
         self.reset()
 
     # ------------------------------------------------------------------ set-up
@@ -225,6 +228,7 @@ class HandoverScene:
                                           initial_grip_force_n=grip_command_n)
                 self.object_phase = "in_gripper"
         if self.plant is not None:
+            self.plant.may_sleep = self.may_sleep
             self.plant.run_real_time(dt_s, grip_command_n)  # the state is read from the plant
             self._update_from_plant(tool_m)
         self._update_receiver(dt_s, tool_m, tool_speed_m_s)

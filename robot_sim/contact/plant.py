@@ -150,7 +150,11 @@ class ContactPlant:
         self._ref_cache: list[tuple] = []
         self._ref_base = 0
         self._ref_settled: tuple[int, tuple] | None = None  # (from step, the sample): constant from then on
-        self._rest: Rest | None = None  # a proven fixed point of the scalar step (robot_sim.contact.rest)
+        self._rest: Rest | None = None  # a fixed point of the scalar step (robot_sim.contact.rest)
+        #: Whether the plant may sleep once still (`robot_sim.contact.rest`; off: every step
+        #: that changes something is computed), and the calls in a row that ended still.
+        self.may_sleep = False
+        self.still_ticks = 0
 
     def replace_receiver(self, receiver: ReceiverParams) -> None:
         """Swap the receiver behaviour mid-run (one episode only), e.g. when the receiver's
@@ -163,6 +167,7 @@ class ContactPlant:
         r = reference(self.time_s, receiver)
         self.hx, self.hy = float(r[0]), float(r[1])
         self.hvx, self.hvy = 0.0, 0.0
+        self._rest, self.still_ticks = None, 0
 
     # ------------------------------------------------------------------ helpers
     @property

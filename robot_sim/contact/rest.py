@@ -20,6 +20,16 @@ load, noise drawn in the same order), the optical sensor's accumulation (of a ze
 displacement) and its reports. Outputs and state are those of full stepping, bit for bit
 (`tests/unit/contact/test_fast_stepping.py`). The receiver holding the object in its hand
 (a 1e-19 m dither of the hand's y) and a falling object never rest: they step in full.
+
+*Sleep* (``plant.may_sleep``, off by default): where nobody judges the physics (the handover
+scene between episodes, `robot_sim.handover_scene`), a plant that has stayed still for
+`SLEEP_AFTER_TICKS` calls in a row (every speed ≤ `SLEEP_SPEED_M_S`, the object's acceleration
+≤ `SLEEP_ACCEL_M_S2`, the finger on its target) is put to rest without the proof, as physics
+engines put resting bodies to sleep: the receiver holding the object still, whose 1e-19 m
+dither would otherwise be stepped at 1 kHz for ever. The sensors go on exactly as in a proven
+rest (F/T samples of the frozen load with their noise, the optical sensor's reports); a new
+reference sample, a grip command that moves the finger's target or ``may_sleep`` turned off
+wakes it, and the physics steps in full again from the state it slept in.
 """
 
 from __future__ import annotations
@@ -36,20 +46,28 @@ if TYPE_CHECKING:
     from robot_sim.contact.plant import ContactPlant
     from robot_sim.contact.receiver import ReceiverParams
 
-__all__ = ["Rest", "advance_scalar", "reference_settled", "shared_repeats"]
+__all__ = ["Rest", "advance_scalar", "reference_settled", "shared_repeats", "SLEEP_AFTER_TICKS",
+           "SLEEP_SPEED_M_S", "SLEEP_ACCEL_M_S2"]
+
+#: A sleeping plant's bound on every speed (object and hand, m/s) and on the object's acceleration (m/s²).
+SLEEP_SPEED_M_S = 1e-9
+SLEEP_ACCEL_M_S2 = 1e-6
+#: Calls of `advance_scalar` in a row that end still before a plant may sleep (0.5 s at the bridge's 100 Hz).
+SLEEP_AFTER_TICKS = 50
 
 _PHYSICS = ("px", "py", "vx", "vy", "ax", "ay", "hx", "hy", "hvx", "hvy", "stuck", "left", "dropped", "mode",
             "grip_force_n", "pull_x", "pull_y", "wrist_x", "wrist_y", "grasp", "holds")
 
 
 class Rest:
-    """A proven fixed point: the reference sample it holds for, whether the optical sensor
-    sees the object's surface there, and the step index it is valid at."""
+    """A fixed point: the reference sample it holds for, whether the optical sensor sees the
+    object's surface there, the step index it is valid at, and whether a step proved it
+    (False: a sleep, see the module docstring)."""
 
-    __slots__ = ("reference", "visible", "step_index")
+    __slots__ = ("reference", "visible", "step_index", "proven")
 
-    def __init__(self, reference: tuple, visible: bool, step_index: int) -> None:
-        self.reference, self.visible, self.step_index = reference, visible, step_index
+    def __init__(self, reference: tuple, visible: bool, step_index: int, proven: bool = True) -> None:
+        self.reference, self.visible, self.step_index, self.proven = reference, visible, step_index, proven
 
 
 def _physics(p: ContactPlant) -> tuple:
@@ -79,11 +97,23 @@ def _probe(p: ContactPlant, grip_command_n: float) -> Rest | None:
     after = _physics(p)
     if not _same_bits(before, after) or not all(math.isfinite(v) for v in after if isinstance(v, float)):
         return None
+    return Rest(p._reference_at(k), _visible(p), p.step_index)
+
+
+def _visible(p: ContactPlant) -> bool:
+    """Whether the optical sensor sees the object's surface in the plant's state."""
     c, obj = p.config, p.config.obj
     finger = p.actuator.finger_m
-    visible = (not p.left and abs(p.px) <= obj.optical_face_x_m and abs(p.py) <= obj.optical_face_y_m
-               and (0.0 if -finger < 0.0 else -finger) <= c.sensors.optical_max_gap_m)
-    return Rest(p._reference_at(k), visible, p.step_index)
+    return (not p.left and abs(p.px) <= obj.optical_face_x_m and abs(p.py) <= obj.optical_face_y_m
+            and (0.0 if -finger < 0.0 else -finger) <= c.sensors.optical_max_gap_m)
+
+
+def _still(p: ContactPlant) -> bool:
+    """Every speed within `SLEEP_SPEED_M_S`, the object's acceleration within `SLEEP_ACCEL_M_S2`,
+    the finger on its target, no grip-command noise."""
+    act, v, a = p.actuator, SLEEP_SPEED_M_S, SLEEP_ACCEL_M_S2
+    return (p._grip_snr is None and act.finger_m == act.target_m and abs(p.vx) <= v and abs(p.vy) <= v
+            and abs(p.hvx) <= v and abs(p.hvy) <= v and abs(p.ax) <= a and abs(p.ay) <= a)
 
 
 def _rest_steps(p: ContactPlant, rest: Rest, n: int) -> int:
@@ -121,16 +151,24 @@ def advance_scalar(p: ContactPlant, grip_command_n: float, n: int) -> None:
     rest = p._rest
     # A latch of this command (every 40 ms) must leave the finger's target as it is.
     latch_keeps = _same_bits(p.actuator.target_for(grip_command_n), p.actuator.target_m)
-    if rest is not None and (rest.step_index != p.step_index or not latch_keeps):
+    if rest is not None and (rest.step_index != p.step_index or not latch_keeps
+                             or not (rest.proven or p.may_sleep)):
         rest = p._rest = None
-    if rest is None and n > 0 and latch_keeps and _may_rest(p):
-        rest = p._rest = _probe(p, grip_command_n)
-        n -= 1
+    if rest is None and n > 0 and latch_keeps:
+        if _may_rest(p):
+            rest = p._rest = _probe(p, grip_command_n)
+            n -= 1
+        elif p.may_sleep and p.still_ticks >= SLEEP_AFTER_TICKS:
+            rest = p._rest = Rest(p._reference_at(p.step_index), _visible(p), p.step_index, proven=False)
     if rest is not None:
         n = _rest_steps(p, rest, n)
         if n:
             p._rest = None
-    run_steps(p, grip_command_n, n)
+            if not rest.proven:  # woken by a new reference sample: still again before another sleep
+                p.still_ticks = 0
+    if n:
+        run_steps(p, grip_command_n, n)
+        p.still_ticks = p.still_ticks + 1 if p.may_sleep and _still(p) else 0
 
 
 def shared_repeats(columns: Sequence[np.ndarray], previous: list[tuple]) -> list[tuple]:

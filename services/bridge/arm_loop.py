@@ -2,8 +2,10 @@
 
 One tick: live through a stall under the old command (`Backend.catch_up`), read the arm,
 take the stops and goals in arrival order (`StopBrake`), reset the scene on a new supervisor
-episode, take the joint commands through the `CommandGate`, pass the newest grip command on,
-then brake, hold or servo, step the backend and return the joint state to publish. The
+episode (and tell the backend whether an episode runs: a simulated scene's still physics
+sleeps outside one, `Backend.episode_running`), take the joint commands through the
+`CommandGate`, pass the newest grip command on, then brake, hold or servo, step the backend
+and return the joint state to publish. The
 backend's extra messages go out through `ArmLoop.publish_extras`, `sim/truth` only when it
 changed by more than 1 nm (`settled_key`) or every `TRUTH_REPEAT_S` at rest.
 
@@ -20,6 +22,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from bus_schema import topics
+from bus_schema.messages import PHASES_OUTSIDE_EPISODE
 from services.bridge.backend import Backend, PublishFn
 from services.bridge.config import BridgeConfig
 from services.bridge.core import CommandGate, StopBrake
@@ -96,6 +99,8 @@ class ArmLoop:
         self._reject_log = RateLimitedLog(log, REJECT_LOG_PERIOD_S)
         self._last_s = start_s
         self._was_holding = True
+        #: What the backend was last told by `Backend.episode_running`.
+        self._episode_running: bool | None = None
 
     def tick(self, now_s: float, inbox: Inbox) -> dict[str, Any]:
         """Run one tick at local time `now_s` (monotonic s); returns the `robot/joint_state`
@@ -110,6 +115,11 @@ class ArmLoop:
             self._take_supervisor(rx.msg.episode_id)
             self.supervisor_loss.state(rx.msg.phase, rx.msg.episode_id)
         self._check_supervisor(tokens, measured.velocity_rad_s)
+        # No supervisor heard: as in an episode (a simulated world never sleeps then).
+        running = self.supervisor_loss.phase not in PHASES_OUTSIDE_EPISODE
+        if running != self._episode_running:
+            backend.episode_running(running)
+            self._episode_running = running
         for rx in inbox.commands.drain():
             self._take_command(rx, current)
         grips = inbox.grips.drain()

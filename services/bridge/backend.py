@@ -87,6 +87,10 @@ class Backend(Protocol):
         """The supervisor started a new episode: reset what a simulated scene keeps per episode
         (hardware: nothing to do)."""
 
+    def episode_running(self, running: bool) -> None:
+        """Whether the supervisor's newest state is inside an episode (a simulated scene may
+        let its still physics sleep outside one; hardware: nothing to do)."""
+
     def close(self) -> None:
         """Release the robot."""
 
@@ -190,6 +194,10 @@ class SimBackend:
 
     def new_episode(self) -> None:
         """The bare arm keeps nothing per episode (the handover scene does)."""
+        return None
+
+    def episode_running(self, running: bool) -> None:
+        """Nothing of the bare arm sleeps between episodes."""
         return None
 
     def gripper_command(self, grip_force_n: float) -> None:

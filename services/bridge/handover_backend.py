@@ -72,6 +72,13 @@ class HandoverSimBackend(SimBackend):
         """Reset the scene (object back on the table) at the next step."""
         self._reset_pending = True
 
+    def episode_running(self, running: bool) -> None:
+        """Outside an episode the scene's contact physics may sleep once still (nobody judges
+        it then; `robot_sim.contact.rest`): the receiver holding the object after a handover
+        is not stepped at 1 kHz for ever."""
+        with self._lock:
+            self.scene.may_sleep = not running
+
     def step(self, dt_s: float) -> None:
         super().step(dt_s)
         q = self.arm.state.position_rad

@@ -348,6 +348,10 @@ class BaxterBackend:
         """A new episode changes nothing on the robot."""
         return None
 
+    def episode_running(self, running: bool) -> None:
+        """Nothing on the robot sleeps between episodes."""
+        return None
+
     def stats(self) -> dict[str, Any]:
         return {"sent": dict(self.sent), "clamped": self.clamped, "skipped_stale": self.skipped_stale,
                 "rejected": {k.key: k.rejected for k in (self._joint_states, self._robot_state,

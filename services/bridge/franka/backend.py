@@ -271,6 +271,10 @@ class FrankaBackend:
         """A new episode changes nothing on the robot."""
         return None
 
+    def episode_running(self, running: bool) -> None:
+        """Nothing on the robot sleeps between episodes."""
+        return None
+
     def close(self) -> None:
         """Bring the arm to rest if one of our motions runs, stop the Hand's thread."""
         try:

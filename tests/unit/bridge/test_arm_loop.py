@@ -45,6 +45,7 @@ class RecordingBackend(SimBackend):
         self.calls: list[tuple] = []
         self.truth: list[dict] = []
         self.episodes = 0
+        self.told_running: list[bool] = []
         self._catching_up = False
 
     def catch_up(self, gap_s: float) -> None:
@@ -63,6 +64,9 @@ class RecordingBackend(SimBackend):
 
     def new_episode(self) -> None:
         self.episodes += 1
+
+    def episode_running(self, running: bool) -> None:
+        self.told_running.append(running)
 
     def publish_extras(self, publish) -> None:
         publish(topics.SIM_TRUTH.suffix, dict(self.truth[-1]))
@@ -195,3 +199,19 @@ def test_the_brakes_ramp_goes_on_through_a_stall():
     assert arm.brake.active and not arm.brake.at_rest  # about 1 rad/s at 40 rad/s²: 25 ms to rest
     arm.tick(t + 0.1, inbox)  # a 0.1 s stall: the ramp ran through it
     assert arm.brake.at_rest
+
+
+def test_the_backend_hears_whether_an_episode_runs_once_per_change():
+    """`Backend.episode_running`: true until a supervisor state says otherwise (no supervisor:
+    as in an episode), then once per change of the newest phase in or out of an episode."""
+    backend, inbox, arm = _setup()
+    t = 10.0
+    told = []
+    for phase in (None, "locate", "transfer", "retract", "done", "done", "idle", "locate", "protective_stop"):
+        t += PERIOD_S
+        if phase is not None:
+            inbox.supervisor.put(t, episode_id=1, phase=phase)
+        arm.tick(t, inbox)
+        told.append(backend.told_running)
+        backend.told_running = []
+    assert told == [[True], [], [], [], [False], [], [], [True], [False]]

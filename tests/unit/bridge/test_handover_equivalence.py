@@ -226,3 +226,48 @@ def test_a_wrongly_skipped_servo_step_is_caught():
     new.step(0.01)
     old.step(0.01)
     assert published(new) != published(old)
+
+
+def test_between_episodes_the_held_object_sleeps_and_publishes_what_it_would_have():
+    """`HandoverSimBackend.episode_running(False)`: after the handover the receiver's still
+    grip sleeps (`robot_sim.contact.rest`); what the backend publishes differs from full
+    stepping by less than 1e-9 (m, N); a new episode's start wakes it."""
+    poses = hs.poses()
+    new, old = hs.default_backend("taking"), full_stepping("taking")
+    for tick in episode(hs.default_backend("taking"), poses):
+        for backend in (new, old):
+            hs.apply(backend, tick)
+    assert new.scene.object_phase == "with_receiver"
+    new.episode_running(False)
+    hold = hs.Tick(None, None, 0.0)
+    slept = 0
+    for _ in range(300):
+        for backend in (new, old):
+            hs.apply(backend, hold)
+        slept += not new.scene.plant._rest.proven if new.scene.plant._rest is not None else 0
+        assert _close(_extras(new), _extras(old)), _extras(new)
+    assert slept > 200, slept
+    new.episode_running(True)
+    hs.apply(new, hold)
+    assert new.scene.plant._rest is None or new.scene.plant._rest.proven
+
+
+def _extras(backend: HandoverSimBackend) -> list[float]:
+    """Every number the backend's extra messages carry, in order."""
+    out: list[float] = []
+    backend.publish_extras(lambda _suffix, fields: out.extend(_numbers(fields.values())))
+    return out
+
+
+def _numbers(values) -> list[float]:
+    out: list[float] = []
+    for v in values:
+        if isinstance(v, (tuple, list)):
+            out.extend(_numbers(v))
+        elif isinstance(v, (bool, int, float)):
+            out.append(float(v))
+    return out
+
+
+def _close(a: list[float], b: list[float]) -> bool:
+    return len(a) == len(b) and all(abs(x - y) < 1e-9 for x, y in zip(a, b))
