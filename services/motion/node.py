@@ -41,7 +41,8 @@ def run_motion(profile: Profile, config: MotionConfig) -> int:
         status_pub = node.publisher(topics.MOTION_STATUS)
         goals = node.subscribe(topics.MOTION_GOAL)
         stops = node.subscribe(topics.MOTION_STOP)
-        states = node.subscribe(topics.JOINT_STATE, queue_size=16, wake=False)  # read at the tick
+        # Read at the tick, the newest only: older samples are dropped by Zenoh, undecoded.
+        states = node.subscribe(topics.JOINT_STATE, queue_size=1, wake=False)
         node.ready()
         log.info("motion running", extra=kv(rate_hz=config.rate_hz))
         seen = [0, 0]  # stops and goals accepted when the last tick ran

@@ -175,3 +175,21 @@ def test_wake_if_wakes_only_for_the_messages_it_accepts_and_queues_every_one(bus
             woke.append(node.wait(0.2 if seq == 0 else 5.0))
         assert woke == [False, True, True, True]  # 0: no; 1: yes; 2: the predicate raised; 3: yes
         assert [rx.msg.seq for rx in sub.drain()] == [0, 1, 2, 3]
+
+
+def test_a_read_at_the_tick_queue_of_one_decodes_only_the_newest(bus):
+    """``wake=False, queue_size=1`` (the supervisor's and motion's joint states and wrench,
+    read at their ticks): of a burst that waited, Zenoh's ring keeps only the newest, and only
+    that one is decoded; a queue of 64 decodes every one."""
+    profile, peer = bus
+    with ServiceNode("probe8", profile, install_signal_handlers=False) as node:
+        newest = node.subscribe(topics.MOTION_STOP, queue_size=1, wake=False)
+        every = node.subscribe(topics.MOTION_STOP, queue_size=64, wake=False)
+        node.ready()
+        assert wait_until(lambda: "probe8" in alive_services(peer, profile.prefix, 0.3), 5.0)
+        for seq in range(5):
+            _put_stop(profile, peer, seq)
+        assert wait_until(lambda: every.stats.received == 5, 5.0)
+        assert [rx.msg.seq for rx in newest.drain()] == [4]
+        assert newest.stats.received == 1
+        assert [rx.msg.seq for rx in every.drain()] == [0, 1, 2, 3, 4]
