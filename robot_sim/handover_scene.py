@@ -187,6 +187,7 @@ class HandoverScene:
         self.object_velocity_m_s = np.zeros(3)
         self.hand_m = self.body.rest_hand_m.copy()
         self.plant: ContactPlant | None = None
+        self._updated_for: bytes | None = None  # the tool position of the last update from the plant
         self._origin_m: np.ndarray | None = None
         self._reach_start_hand_m = self.hand_m.copy()
         self._reach_elapsed_s = 0.0
@@ -227,10 +228,17 @@ class HandoverScene:
                 self.plant = self.plant_type(self._config, absent(p.object_mass_kg * 9.81), seed=p.seed,
                                           initial_grip_force_n=grip_command_n)
                 self.object_phase = "in_gripper"
-        if self.plant is not None:
-            self.plant.may_sleep = self.may_sleep
-            self.plant.run_real_time(dt_s, grip_command_n)  # the state is read from the plant
-            self._update_from_plant(tool_m)
+        plant = self.plant
+        if plant is not None:
+            plant.may_sleep = self.may_sleep
+            rest = plant._rest
+            plant.run_real_time(dt_s, grip_command_n)  # the state is read from the plant
+            tool_key = tool_m.tobytes()
+            # Only replayed (a rest or a sleep all through) with the tool where it was: the
+            # plant's state and so the scene's are what they were.
+            if rest is None or plant._rest is not rest or tool_key != self._updated_for:
+                self._update_from_plant(tool_m)
+                self._updated_for = tool_key
         self._update_receiver(dt_s, tool_m, tool_speed_m_s)
         return self._output()
 

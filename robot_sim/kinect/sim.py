@@ -198,6 +198,11 @@ class KinectSim:
         self._reach_start_s = self.scenario.reach_start_s
         self._reach_duration_s = self.scenario.reach_duration_s
         self._last_hand = self._hand_start.copy()
+        #: The body's joints (read-only arrays) and their stacked rows for the hand position
+        #: of these bytes, and the tool position for the arm's joints of those bytes: a still
+        #: receiver and a still arm (every idle frame) are not solved again.
+        self._joints_for: tuple[bytes, dict[str, np.ndarray], np.ndarray] | None = None
+        self._tool_for: tuple[bytes, np.ndarray] | None = None
 
     def set_hand_target(self, target_base_m: np.ndarray | None, start_s: float, duration_s: float) -> None:
         """Start a minimum-jerk reach of the right hand from where it is now to `target_base_m`
@@ -248,11 +253,10 @@ class KinectSim:
                 (the handover scene) drives it; default: this simulator's own reach.
         """
         hand = self.true_hand(t_s) if right_hand_m is None else np.asarray(right_hand_m, float)
-        joints = self.body.joints(hand)
+        joints, joints_arr = self._joints_at(hand)
         self._last_hand = joints["right_hand"].copy()
-        joints_arr = np.stack([joints[n] for n in SKELETON_JOINTS])
         q = np.array(q_arm_rad, float)  # copies: the frame's depth may be made later
-        tool = self.arm.tool_position(q)
+        tool = self._tool_at(q)
         obj = np.array(robots.active().object_pick_base_m if object_position_m is None else object_position_m, float)
         index, self.frames = self.frames, self.frames + 1
         # The moving shapes too are made only when the depth is read.
@@ -276,6 +280,31 @@ class KinectSim:
             body=self.body.size,
         )
         return KinectFrame(skeleton_fields, self.camera_fields, readings, truth)
+
+    def _joints_at(self, hand_m: np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """The body's joints for the right hand at `hand_m` (m, `base`; a new dict of
+        read-only arrays) and their rows in `SKELETON_JOINTS` order, solved again only when
+        the hand moved (the same result bit for bit: `ReceiverBody.joints` is a function of
+        the hand alone)."""
+        key = hand_m.tobytes()
+        if self._joints_for is None or self._joints_for[0] != key:
+            joints = {name: np.array(v, float) for name, v in self.body.joints(hand_m).items()}
+            for v in joints.values():
+                v.flags.writeable = False
+            rows = np.stack([joints[n] for n in SKELETON_JOINTS])
+            rows.flags.writeable = False
+            self._joints_for = (key, joints, rows)
+        return dict(self._joints_for[1]), self._joints_for[2]
+
+    def _tool_at(self, q_rad: np.ndarray) -> np.ndarray:
+        """The tool position (m, `base`, read-only) for the arm's joints `q_rad` (rad),
+        computed again only when a joint moved."""
+        key = q_rad.tobytes()
+        if self._tool_for is None or self._tool_for[0] != key:
+            tool = np.array(self.arm.tool_position(q_rad), float)
+            tool.flags.writeable = False
+            self._tool_for = (key, tool)
+        return self._tool_for[1]
 
     def noise_rng(self, index: int) -> np.random.Generator:
         """The depth noise generator of frame `index` (0 for the first `step`): seeded by the
