@@ -23,6 +23,11 @@ from handover_model import robots
 from handover_model.robots import JointLimits
 
 
+#: Bound on the absolute rounding error of the computed 1 − exp(−dt/τ) (exp is within half
+#: an ulp of a value ≤ 1, and the subtraction from 1 is exact there), with a margin.
+DECAY_ROUNDING = 4.5e-16
+
+
 @dataclass
 class ArmState:
     """Joint positions (rad) and velocities (rad/s), in the arm's joint order."""
@@ -80,7 +85,9 @@ class SimulatedArm:
         feed-forward is not zero). An arm settled a few units in the last place short of its
         target (the lag term then rounds away) stays put for any dt up to the bound: each
         joint's step error × (1 − exp(−dt/τ)) stays below 0.45 of the gap to its nearest
-        neighbouring float, under the 0.5 at which q + step could round away from q.
+        neighbouring float, under the 0.5 at which q + step could round away from q, with
+        the computed decay's own rounding (1 − exp(x) is off by up to 1.1e-16 in absolute
+        terms, which matters for a tiny dt against a large error) allowed for.
         Valid while the state, the target and the feed-forward are unchanged."""
         q = self.state.position_rad
         if self.feedforward_rad_s.any() or self.state.velocity_rad_s.any():
@@ -93,7 +100,9 @@ class SimulatedArm:
         for error, gap in zip((self.target_rad - q).tolist(), gaps.tolist()):
             if error == 0.0:
                 continue  # q + (±0.0) is q for any dt (a −0.0 position fails the caller's check)
-            ratio = 0.45 * gap / abs(error)
+            ratio = 0.45 * gap / abs(error) - DECAY_ROUNDING
+            if ratio <= 0.0:
+                return 0.0  # no dt short of a rounding's worth
             if not ratio < 1.0:
                 continue
             bound = min(bound, -self.time_constant_s * math.log1p(-ratio))

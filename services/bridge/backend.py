@@ -127,7 +127,7 @@ class SimBackend:
         inputs = (arm.target_rad.tobytes(), arm.feedforward_rad_s.tobytes(), arm.time_constant_s)
         rest = self._at_rest
         if (rest is not None and rest[0] is before and rest[2] == inputs
-                and (rest[1] == dt_s or 0.0 < dt_s <= rest[3] or (rest[1] is None and 0.0 < dt_s < math.inf))):
+                and (rest[1] == dt_s or (0.0 < dt_s < math.inf and (rest[1] is None or dt_s <= rest[3])))):
             return  # a step with these inputs changed nothing: it would change nothing again
         arm.step(dt_s)
         after = arm.state

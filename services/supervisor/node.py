@@ -32,9 +32,8 @@ from services.supervisor.truth import outcome_from_truth, simulated_robot
 log = logging.getLogger(__name__)
 
 SERVICE_NAME = "supervisor"
-#: The sequencer's inputs, read at the tick (they do not wake the loop): snapshot field,
-#: topic, queue size.
-#: (snapshot field, topic, queue size) of what the loop drains at every wake-up. Each tick
+#: The sequencer's inputs (snapshot field, topic, queue size): they do not wake the loop, which
+#: drains them at every wake-up, its ticks and the urgent ones. Each tick
 #: takes only the newest message of a field into the snapshot, so a queue of one keeps only
 #: that: Zenoh's ring channel drops the older ones before any Python decodes them (about
 #: 120 decodes a second fewer at rest, where a 40 Hz tick finds 2–3 joint states and wrench
