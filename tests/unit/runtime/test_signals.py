@@ -75,7 +75,9 @@ def test_on_signal_gets_the_number_in_the_relay_thread_and_restore_puts_the_old_
     assert not relay.installed
     assert {sig: signal.getsignal(sig) for sig in before} == before
     assert not any(t.name == "relay under test" for t in threading.enumerate())
-    assert sorted(os.listdir("/proc/self/fd")) == fds_before  # both ends of the pipe closed
+    # Both ends of the pipe closed: no descriptor the relay opened is left. (Only new ones
+    # count: a Zenoh session of an earlier test may close its sockets meanwhile.)
+    assert set(os.listdir("/proc/self/fd")) - set(fds_before) == set()
     relay.restore()  # idempotent
 
 
