@@ -231,12 +231,12 @@ class HandoverScene:
         plant = self.plant
         if plant is not None:
             plant.may_sleep = self.may_sleep
-            rest = plant._rest
+            rest = plant.rest
             plant.run_real_time(dt_s, grip_command_n)  # the state is read from the plant
             tool_key = tool_m.tobytes()
             # Only replayed (a rest or a sleep all through) with the tool where it was: the
             # plant's state and so the scene's are what they were.
-            if rest is None or plant._rest is not rest or tool_key != self._updated_for:
+            if rest is None or plant.rest is not rest or tool_key != self._updated_for:
                 self._update_from_plant(tool_m)
                 self._updated_for = tool_key
         self._update_receiver(dt_s, tool_m, tool_speed_m_s)

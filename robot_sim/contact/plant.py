@@ -171,6 +171,12 @@ class ContactPlant:
 
     # ------------------------------------------------------------------ helpers
     @property
+    def rest(self) -> Rest | None:
+        """The fixed point the plant replays now (proven, or a sleep), or None: while the same
+        one stays, its physics state does not change (`robot_sim.contact.rest`)."""
+        return self._rest
+
+    @property
     def time_s(self) -> float:
         """Episode time (s) of the current state."""
         return self.step_index * self.dt_s

@@ -5,9 +5,9 @@ take the stops and goals in arrival order (`StopBrake`), reset the scene on a ne
 episode (and tell the backend whether an episode runs: a simulated scene's still physics
 sleeps outside one, `Backend.episode_running`), take the joint commands through the
 `CommandGate`, pass the newest grip command on, then brake, hold or servo, step the backend
-and return the joint state to publish. The
-backend's extra messages go out through `ArmLoop.publish_extras`, `sim/truth` only when it
-changed by more than 1 nm (`settled_key`) or every `TRUTH_REPEAT_S` at rest.
+and return the joint state to publish. The backend's extra messages go out through
+`ArmLoop.publish_extras`, `sim/truth` only when it changed by more than 1 nm (`settled_key`)
+or every `TRUTH_REPEAT_S` at rest.
 
 The caller passes the local monotonic time (s) and the queues of what arrived since the last
 tick (`Inbox`, drained here in the order the bridge always read them).

@@ -100,10 +100,10 @@ class SimBackend:
 
     A servo step that would leave the arm exactly as it is (the same positions and
     velocities) is not computed again while its inputs stay the same (the state, target and
-    feed-forward bit for bit, and the step's dt, or any dt when the arm rests exactly on its
-    target with no feed-forward, or any dt up to a bound proven from the servo's equations when
-    it settled a hair short of its target), and a command equal to the one the servo already has is not
-    clipped again: the arm's state is what it would have been, bit for bit
+    feed-forward bit for bit, and the step's dt or any dt up to a bound proven from the servo's
+    equations: unbounded when the arm rests exactly on its target with no feed-forward, a few
+    ms when it settled a hair short of it), and a command equal to the one the servo already
+    has is not clipped again: the arm's state is what it would have been, bit for bit
     (`tests/unit/bridge/test_handover_equivalence.py`).
     """
 
@@ -117,7 +117,7 @@ class SimBackend:
         self.arm = SimulatedArm(time_constant_s, self.limits, initial_position_rad)
         self.robot_command_timeout_s = float(robot_command_timeout_s)
         self._holding_target: np.ndarray | None = None
-        #: (state, dt or None: any, inputs, longest dt proven to change nothing) of a step that changed nothing
+        #: (state, its dt, inputs, longest dt proven to change nothing) of a step that changed nothing
         self._at_rest: tuple | None = None
         self._commanded: tuple | None = None  # (command bytes, the target and feed-forward arrays it set)
 
@@ -127,7 +127,7 @@ class SimBackend:
         inputs = (arm.target_rad.tobytes(), arm.feedforward_rad_s.tobytes(), arm.time_constant_s)
         rest = self._at_rest
         if (rest is not None and rest[0] is before and rest[2] == inputs
-                and (rest[1] == dt_s or (0.0 < dt_s < math.inf and (rest[1] is None or dt_s <= rest[3])))):
+                and (rest[1] == dt_s or (0.0 < dt_s <= rest[3] and dt_s < math.inf))):
             return  # a step with these inputs changed nothing: it would change nothing again
         arm.step(dt_s)
         after = arm.state
@@ -135,12 +135,11 @@ class SimBackend:
         q = before.position_rad.tobytes()
         if (after is not before and after.position_rad.tobytes() == q
                 and after.velocity_rad_s.tobytes() == before.velocity_rad_s.tobytes()):
-            # At rest on its target with no feed-forward, the step is q + 0 for any dt > 0
-            # (q is not −0.0: the step would have made it +0.0); settled a few units in the
-            # last place short of it, for any dt up to a bound (the loop's jitter moves dt
-            # every tick: `SimulatedArm.still_for_dt_up_to_s`); otherwise only for this dt.
-            any_dt = inputs[0] == q and not arm.feedforward_rad_s.any()
-            self._at_rest = (after, None if any_dt else dt_s, inputs, 0.0 if any_dt else arm.still_for_dt_up_to_s())
+            # For this dt, and for any dt up to the bound its equations prove
+            # (`SimulatedArm.still_for_dt_up_to_s`): unbounded when it rests exactly on its
+            # target with no feed-forward, a few ms when it settled a few units in the last
+            # place short of it (the loop's jitter moves dt every tick).
+            self._at_rest = (after, dt_s, inputs, arm.still_for_dt_up_to_s())
 
     def catch_up(self, gap_s: float) -> None:
         """The simulated robot did not stop when the bridge stalled: like the default arm's own

@@ -246,7 +246,7 @@ def test_a_wrongly_skipped_servo_step_is_caught():
     for backend in (new, old):
         backend.command(tick.target_rad, tick.feedforward_rad_s)
     arm = new.arm
-    new._at_rest = (arm.state, None, (arm.target_rad.tobytes(), arm.feedforward_rad_s.tobytes(),
+    new._at_rest = (arm.state, 0.01, (arm.target_rad.tobytes(), arm.feedforward_rad_s.tobytes(),
                                       arm.time_constant_s), 0.0)  # wrong: the arm moves
     new.step(0.01)
     old.step(0.01)
